@@ -1,0 +1,360 @@
+//! The atmosphere as the tracer sees it: layers between altitude levels,
+//! each with piecewise-constant optical properties per wavelength.
+//!
+//! Built either from a gas profile (Rayleigh, ozone absorption, an OPAC
+//! aerosol mixture scaled to a visibility: libRadtran's layering, see
+//! `profile`, `rayleigh`, `ozone`, `aerosol`) or from explicit layers given
+//! as optical depths (the published plane-parallel benchmarks).
+
+use crate::aerosol::Aerosol;
+use crate::constants::{CM_PER_KM, VISIBILITY_WAVELENGTH_NM};
+use crate::error::{Error, Result};
+use crate::ozone::{CrossSection, OzoneModel};
+use crate::profile::GasProfile;
+use crate::rayleigh::{self, RayleighModel};
+use crate::visibility::{GroundExtinction, Visibility};
+
+/// Optical properties of one layer at one wavelength. Coefficients in km⁻¹.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LayerOptics {
+    pub sigma_rayleigh: f64,
+    pub rayleigh_depolarization: f64,
+    /// Gas absorption (ozone).
+    pub sigma_absorption: f64,
+    pub sigma_aerosol_ext: f64,
+    pub sigma_aerosol_sca: f64,
+    /// Henyey–Greenstein asymmetry parameter of the aerosol.
+    pub aerosol_g: f64,
+}
+
+impl LayerOptics {
+    /// Total extinction coefficient σ_t (km⁻¹).
+    pub fn sigma_t(&self) -> f64 {
+        self.sigma_rayleigh + self.sigma_absorption + self.sigma_aerosol_ext
+    }
+
+    /// Total scattering coefficient σ_s (km⁻¹).
+    pub fn sigma_s(&self) -> f64 {
+        self.sigma_rayleigh + self.sigma_aerosol_sca
+    }
+}
+
+/// Column optical depths at one wavelength.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ColumnTotals {
+    pub tau_rayleigh: f64,
+    pub tau_absorption: f64,
+    pub tau_aerosol_ext: f64,
+    pub tau_aerosol_sca: f64,
+}
+
+impl ColumnTotals {
+    /// Column single-scattering albedo of the aerosol.
+    pub fn aerosol_ssa(&self) -> f64 {
+        if self.tau_aerosol_ext > 0.0 {
+            self.tau_aerosol_sca / self.tau_aerosol_ext
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One explicit layer of a benchmark atmosphere (wavelength independent).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExplicitLayer {
+    pub bottom_km: f64,
+    pub top_km: f64,
+    pub tau_rayleigh: f64,
+    pub rayleigh_depolarization: f64,
+    pub tau_absorption: f64,
+    pub tau_aerosol: f64,
+    pub aerosol_ssa: f64,
+    pub aerosol_g: f64,
+}
+
+/// The constituents of a profile-based atmosphere.
+#[derive(Debug, Clone)]
+pub struct ProfileSpec {
+    pub profile: GasProfile,
+    pub rayleigh: RayleighModel,
+    pub ozone: OzoneModel,
+    /// Scale the ozone column (0 to top) to this many Dobson units.
+    pub ozone_column_du: Option<f64>,
+    pub aerosol: Option<Aerosol>,
+    /// Scale the aerosol boundary layer to this ground visibility.
+    pub visibility_km: Option<f64>,
+}
+
+/// What failed while building a profile atmosphere, for the job layer to
+/// name the key it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BuildError {
+    /// A wavelength is outside what a constituent's data covers.
+    Wavelength {
+        lambda_nm: f64,
+        what: String,
+        range_nm: (f64, f64),
+    },
+    /// The requested visibility cannot be reached.
+    Visibility { requested_km: f64, max_km: f64 },
+    /// The ozone column cannot be scaled (no ozone in the profile).
+    OzoneColumn,
+    /// A built-in table failed to load.
+    Data(String),
+}
+
+/// Layers with optical properties for each wavelength.
+#[derive(Debug, Clone)]
+pub struct Atmosphere {
+    /// Layer boundaries, ascending; `levels_km[0]` is the ground.
+    pub levels_km: Vec<f64>,
+    pub wavelengths_nm: Vec<f64>,
+    /// `optics[wavelength][layer]`.
+    pub optics: Vec<Vec<LayerOptics>>,
+    /// Ground visibility at 550 nm, for profile atmospheres with aerosol.
+    pub visibility: Option<Visibility>,
+    /// Ozone column (DU) between the ground and the top, for profiles.
+    pub ozone_column_du: Option<f64>,
+}
+
+impl Atmosphere {
+    /// Builds the layers of a gas profile cut at `top_km`.
+    pub fn from_profile(
+        spec: &ProfileSpec,
+        top_km: f64,
+        wavelengths_nm: &[f64],
+    ) -> std::result::Result<Atmosphere, BuildError> {
+        let mut profile = spec.profile.truncated(top_km);
+        let ozone = CrossSection::builtin(spec.ozone)
+            .transpose()
+            .map_err(|e| BuildError::Data(e.to_string()))?;
+        let check = |lambda_nm: f64, what: &str, (lo, hi): (f64, f64)| {
+            if lambda_nm >= lo && lambda_nm <= hi {
+                Ok(())
+            } else {
+                Err(BuildError::Wavelength {
+                    lambda_nm,
+                    what: what.to_string(),
+                    range_nm: (lo, hi),
+                })
+            }
+        };
+        for &l in wavelengths_nm {
+            if spec.rayleigh == RayleighModel::Bodhaine {
+                check(
+                    l,
+                    "the Bodhaine Rayleigh formula",
+                    rayleigh::WAVELENGTH_RANGE_NM,
+                )?;
+            }
+            if let Some(x) = &ozone {
+                check(
+                    l,
+                    &format!("the {} ozone cross section", x.name),
+                    x.range_nm(),
+                )?;
+            }
+            if let Some(a) = &spec.aerosol {
+                let (range, comp) = a.range_nm();
+                check(
+                    l,
+                    &format!("OPAC component `{comp}` of `{}`", a.mixture.name),
+                    range,
+                )?;
+            }
+        }
+
+        // Ozone column scaling.
+        let ozone_column_du = if spec.ozone == OzoneModel::None {
+            None
+        } else {
+            let du = profile.o3_column_du();
+            if let Some(target) = spec.ozone_column_du {
+                if du <= 0.0 {
+                    return Err(BuildError::OzoneColumn);
+                }
+                profile.scale_ozone(target / du);
+            }
+            Some(profile.o3_column_du())
+        };
+
+        // Visibility scaling of the aerosol boundary layer.
+        let mut visibility = None;
+        let aerosol = match &spec.aerosol {
+            None => None,
+            Some(a) => {
+                let ground = ground_extinction(&profile, spec.rayleigh, a);
+                let unscaled_km = ground.visibility_km(1.0);
+                let (scaled, s) = match spec.visibility_km {
+                    None => (a.clone(), 1.0),
+                    Some(v) => {
+                        let s = ground.scale_for(v).ok_or(BuildError::Visibility {
+                            requested_km: v,
+                            max_km: ground.max_visibility_km(),
+                        })?;
+                        (a.with_boundary_scale(s), s)
+                    }
+                };
+                visibility = Some(Visibility {
+                    ground_km: ground.visibility_km(s),
+                    unscaled_km,
+                    boundary_scale: s,
+                });
+                Some(scaled)
+            }
+        };
+
+        let co2 = profile.surface_co2_ratio();
+        let optics = wavelengths_nm
+            .iter()
+            .map(|&lambda| {
+                let (sigma_r, rho) = match spec.rayleigh {
+                    RayleighModel::Bodhaine => (
+                        rayleigh::cross_section_cm2(lambda, co2),
+                        rayleigh::depolarization(lambda, co2),
+                    ),
+                    RayleighModel::None => (0.0, 0.0),
+                };
+                (0..profile.layer_count())
+                    .map(|i| {
+                        let dz = profile.levels[i + 1].z_km - profile.levels[i].z_km;
+                        // Columns are per cm², coefficients per km.
+                        let per_km = 1.0 / dz;
+                        let mut o = LayerOptics {
+                            sigma_rayleigh: sigma_r * profile.air_column_cm2(i) * per_km,
+                            rayleigh_depolarization: rho,
+                            ..LayerOptics::default()
+                        };
+                        if let Some(x) = &ozone {
+                            let t = profile.layer_temperature_k(i);
+                            // Range was checked above.
+                            let s = x.sigma_cm2(lambda, t).unwrap_or(0.0);
+                            o.sigma_absorption = s * profile.o3_column_cm2(i) * per_km;
+                        }
+                        if let Some(a) = &aerosol {
+                            let ao = a.layer_optics(&profile, i, lambda).unwrap_or_default();
+                            o.sigma_aerosol_ext = ao.sigma_ext;
+                            o.sigma_aerosol_sca = ao.sigma_sca;
+                            o.aerosol_g = ao.g;
+                        }
+                        o
+                    })
+                    .collect()
+            })
+            .collect();
+
+        Ok(Atmosphere {
+            levels_km: profile.levels.iter().map(|l| l.z_km).collect(),
+            wavelengths_nm: wavelengths_nm.to_vec(),
+            optics,
+            visibility,
+            ozone_column_du,
+        })
+    }
+
+    /// Builds an atmosphere from explicit layers (contiguous, from the
+    /// ground up); the same optics at every wavelength.
+    pub fn from_layers(layers: &[ExplicitLayer], wavelengths_nm: &[f64]) -> Result<Atmosphere> {
+        let mut sorted = layers.to_vec();
+        sorted.sort_by(|a, b| a.bottom_km.total_cmp(&b.bottom_km));
+        let Some(first) = sorted.first() else {
+            return Err(Error::data("atmosphere.layers", "no layers"));
+        };
+        let mut levels_km = vec![first.bottom_km];
+        for l in &sorted {
+            let last = levels_km[levels_km.len() - 1];
+            if l.bottom_km != last {
+                return Err(Error::data(
+                    "atmosphere.layers",
+                    format!(
+                        "layers must be contiguous: a layer ends at {last} km, the next starts at {} km",
+                        l.bottom_km
+                    ),
+                ));
+            }
+            levels_km.push(l.top_km);
+        }
+        let per_layer: Vec<LayerOptics> = sorted
+            .iter()
+            .map(|l| {
+                let dz = l.top_km - l.bottom_km;
+                LayerOptics {
+                    sigma_rayleigh: l.tau_rayleigh / dz,
+                    rayleigh_depolarization: l.rayleigh_depolarization,
+                    sigma_absorption: l.tau_absorption / dz,
+                    sigma_aerosol_ext: l.tau_aerosol / dz,
+                    sigma_aerosol_sca: l.tau_aerosol * l.aerosol_ssa / dz,
+                    aerosol_g: l.aerosol_g,
+                }
+            })
+            .collect();
+        Ok(Atmosphere {
+            levels_km,
+            wavelengths_nm: wavelengths_nm.to_vec(),
+            optics: vec![per_layer; wavelengths_nm.len()],
+            visibility: None,
+            ozone_column_du: None,
+        })
+    }
+
+    /// Number of layers.
+    pub fn layer_count(&self) -> usize {
+        self.levels_km.len() - 1
+    }
+
+    /// Top of the atmosphere (km).
+    pub fn top_km(&self) -> f64 {
+        self.levels_km[self.levels_km.len() - 1]
+    }
+
+    /// Thickness of layer `i` (km).
+    pub fn thickness_km(&self, i: usize) -> f64 {
+        self.levels_km[i + 1] - self.levels_km[i]
+    }
+
+    /// Column optical depths at wavelength index `w`.
+    pub fn column(&self, w: usize) -> ColumnTotals {
+        let mut c = ColumnTotals::default();
+        for (i, o) in self.optics[w].iter().enumerate() {
+            let dz = self.thickness_km(i);
+            c.tau_rayleigh += o.sigma_rayleigh * dz;
+            c.tau_absorption += o.sigma_absorption * dz;
+            c.tau_aerosol_ext += o.sigma_aerosol_ext * dz;
+            c.tau_aerosol_sca += o.sigma_aerosol_sca * dz;
+        }
+        c
+    }
+}
+
+/// Ground extinction at 550 nm split into Rayleigh, free-tropospheric and
+/// boundary-layer aerosol. "At the ground": Rayleigh from the air density of
+/// the lowest level, aerosol of the lowest layer.
+fn ground_extinction(
+    profile: &GasProfile,
+    model: RayleighModel,
+    aerosol: &Aerosol,
+) -> GroundExtinction {
+    let lambda = VISIBILITY_WAVELENGTH_NM;
+    let rayleigh = match model {
+        RayleighModel::Bodhaine => {
+            rayleigh::cross_section_cm2(lambda, profile.surface_co2_ratio())
+                * profile.levels[0].n_air
+                * CM_PER_KM
+        }
+        RayleighModel::None => 0.0,
+    };
+    let total = aerosol
+        .layer_optics(profile, 0, lambda)
+        .unwrap_or_default()
+        .sigma_ext;
+    let boundary = aerosol
+        .boundary_layer_only()
+        .layer_optics(profile, 0, lambda)
+        .unwrap_or_default()
+        .sigma_ext;
+    GroundExtinction {
+        rayleigh,
+        aerosol_free: total - boundary,
+        aerosol_boundary: boundary,
+    }
+}

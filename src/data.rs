@@ -1,0 +1,233 @@
+//! The data tables atmosim carries, embedded at compile time so the binary
+//! runs anywhere, and the one parser for their format.
+//!
+//! Format: UTF-8 text; lines starting with `#` are comments (provenance, and
+//! `key: value` lines such as `t0_K: 273.15` or `components: inso waso`);
+//! every other non-blank line is a row of whitespace-separated numbers.
+//! The files are written by `scripts/derive_data.py` from the public source
+//! data; each says where its numbers come from.
+
+use crate::error::{Error, Result};
+
+/// A parsed data table: its comment lines and its numeric rows.
+#[derive(Debug, Clone)]
+pub struct Table {
+    /// Name used in error messages (file name or built-in name).
+    pub name: String,
+    /// Comment lines without the leading `#` and surrounding blanks.
+    pub comments: Vec<String>,
+    /// Numeric rows, each with the same number of columns.
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl Table {
+    /// Parses `text`, requiring exactly `columns` numbers per row (or, with
+    /// `columns == 0`, the same count in every row).
+    pub fn parse(name: &str, text: &str, columns: usize) -> Result<Table> {
+        let mut comments = Vec::new();
+        let mut rows: Vec<Vec<f64>> = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let s = line.trim();
+            if s.is_empty() {
+                continue;
+            }
+            if let Some(c) = s.strip_prefix('#') {
+                comments.push(c.trim().to_string());
+                continue;
+            }
+            let row = s
+                .split_whitespace()
+                .map(|w| {
+                    w.parse::<f64>().map_err(|_| {
+                        Error::data(name, format!("line {}: `{w}` is not a number", i + 1))
+                    })
+                })
+                .collect::<Result<Vec<f64>>>()?;
+            let expected = if columns > 0 {
+                columns
+            } else {
+                rows.first().map_or(row.len(), Vec::len)
+            };
+            if row.len() != expected {
+                return Err(Error::data(
+                    name,
+                    format!("line {}: {} columns, expected {expected}", i + 1, row.len()),
+                ));
+            }
+            if let Some(bad) = row.iter().find(|v| !v.is_finite()) {
+                return Err(Error::data(
+                    name,
+                    format!("line {}: non-finite value {bad}", i + 1),
+                ));
+            }
+            rows.push(row);
+        }
+        if rows.is_empty() {
+            return Err(Error::data(name, "no data rows"));
+        }
+        Ok(Table {
+            name: name.to_string(),
+            comments,
+            rows,
+        })
+    }
+
+    /// The value of a `key: value` comment line, if present.
+    pub fn header(&self, key: &str) -> Option<&str> {
+        self.comments.iter().find_map(|c| {
+            let (k, v) = c.split_once(':')?;
+            (k.trim() == key).then(|| v.trim())
+        })
+    }
+
+    /// Column `j` of every row.
+    pub fn column(&self, j: usize) -> Vec<f64> {
+        self.rows.iter().map(|r| r[j]).collect()
+    }
+
+    /// Checks that column `j` strictly increases.
+    pub fn require_ascending(&self, j: usize, what: &str) -> Result<()> {
+        for w in self.rows.windows(2) {
+            if w[1][j] <= w[0][j] {
+                return Err(Error::data(
+                    &self.name,
+                    format!(
+                        "{what} must increase strictly ({} then {})",
+                        w[0][j], w[1][j]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+macro_rules! embedded {
+    ($($name:literal => $path:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", $path)))),*]
+    };
+}
+
+/// The six AFGL gas profiles (Anderson et al. 1986).
+pub static AFGL_PROFILES: &[(&str, &str)] = embedded! {
+    "us_standard" => "atmospheres/afgl/us_standard.txt",
+    "midlatitude_summer" => "atmospheres/afgl/midlatitude_summer.txt",
+    "midlatitude_winter" => "atmospheres/afgl/midlatitude_winter.txt",
+    "subarctic_summer" => "atmospheres/afgl/subarctic_summer.txt",
+    "subarctic_winter" => "atmospheres/afgl/subarctic_winter.txt",
+    "tropical" => "atmospheres/afgl/tropical.txt",
+};
+
+/// The ten OPAC mixtures as mass-density profiles (Hess et al. 1998).
+pub static OPAC_MIXTURES: &[(&str, &str)] = embedded! {
+    "antarctic" => "atmospheres/opac/mixtures/antarctic.txt",
+    "continental_average" => "atmospheres/opac/mixtures/continental_average.txt",
+    "continental_clean" => "atmospheres/opac/mixtures/continental_clean.txt",
+    "continental_polluted" => "atmospheres/opac/mixtures/continental_polluted.txt",
+    "desert" => "atmospheres/opac/mixtures/desert.txt",
+    "desert_spheroids" => "atmospheres/opac/mixtures/desert_spheroids.txt",
+    "maritime_clean" => "atmospheres/opac/mixtures/maritime_clean.txt",
+    "maritime_polluted" => "atmospheres/opac/mixtures/maritime_polluted.txt",
+    "maritime_tropical" => "atmospheres/opac/mixtures/maritime_tropical.txt",
+    "urban" => "atmospheres/opac/mixtures/urban.txt",
+};
+
+/// OPAC component optical properties available (Mie, per unit mass).
+pub static OPAC_COMPONENTS: &[(&str, &str)] = embedded! {
+    "inso" => "atmospheres/opac/components/inso.txt",
+    "waso" => "atmospheres/opac/components/waso.txt",
+    "soot" => "atmospheres/opac/components/soot.txt",
+    "suso" => "atmospheres/opac/components/suso.txt",
+};
+
+/// Ozone cross-section tables.
+pub static OZONE_CROSS_SECTIONS: &[(&str, &str)] = embedded! {
+    "bogumil" => "spectra/ozone_bogumil.txt",
+    "molina" => "spectra/ozone_molina.txt",
+};
+
+/// Kurucz (1992) extraterrestrial solar irradiance, 1 nm, W m⁻² nm⁻¹.
+pub static SOLAR_KURUCZ: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/spectra/solar_kurucz_1nm.txt"
+));
+
+/// Looks up a built-in table by name.
+pub fn builtin(set: &'static [(&'static str, &'static str)], name: &str) -> Option<&'static str> {
+    set.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
+}
+
+/// The names of a built-in set, for error messages.
+pub fn names(set: &[(&str, &str)]) -> String {
+    set.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+}
+
+/// Linear interpolation in a table with ascending abscissae `x`; `None`
+/// outside `[x[0], x[n-1]]`.
+pub fn interp_linear(x: &[f64], y: &[f64], at: f64) -> Option<f64> {
+    let (lo, frac) = bracket(x, at)?;
+    Some(if frac == 0.0 {
+        y[lo]
+    } else {
+        y[lo] + (y[lo + 1] - y[lo]) * frac
+    })
+}
+
+/// The interval of an ascending table that holds `at`: the index of its
+/// lower node and the fraction of the way to the next node. `None` outside.
+pub fn bracket(x: &[f64], at: f64) -> Option<(usize, f64)> {
+    let n = x.len();
+    if n == 0 || !(at >= x[0] && at <= x[n - 1]) {
+        return None;
+    }
+    if n == 1 {
+        return Some((0, 0.0));
+    }
+    let hi = x.partition_point(|&v| v <= at).clamp(1, n - 1);
+    let lo = hi - 1;
+    Some((lo, ((at - x[lo]) / (x[hi] - x[lo])).min(1.0)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_comments_headers_and_rows() {
+        let t = Table::parse("t", "# a: 1.5\n# free text\n1 2\n\n3 4\n", 2).unwrap();
+        assert_eq!(t.header("a"), Some("1.5"));
+        assert_eq!(t.rows, vec![vec![1.0, 2.0], vec![3.0, 4.0]]);
+    }
+
+    #[test]
+    fn rejects_ragged_and_non_numeric_rows() {
+        assert!(Table::parse("t", "1 2\n3\n", 0).is_err());
+        let e = Table::parse("t", "1 x\n", 2).unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains("`x`"), "{e}");
+    }
+
+    #[test]
+    fn interpolation_hits_nodes_and_midpoints() {
+        let x = [1.0, 2.0, 4.0];
+        let y = [10.0, 20.0, 0.0];
+        assert_eq!(interp_linear(&x, &y, 2.0), Some(20.0));
+        assert_eq!(interp_linear(&x, &y, 4.0), Some(0.0));
+        assert_eq!(interp_linear(&x, &y, 3.0), Some(10.0));
+        assert_eq!(interp_linear(&x, &y, 0.5), None);
+    }
+
+    #[test]
+    fn every_builtin_table_parses() {
+        for set in [
+            AFGL_PROFILES,
+            OPAC_MIXTURES,
+            OPAC_COMPONENTS,
+            OZONE_CROSS_SECTIONS,
+        ] {
+            for (name, text) in set {
+                Table::parse(name, text, 0).unwrap();
+            }
+        }
+        Table::parse("kurucz", SOLAR_KURUCZ, 2).unwrap();
+    }
+}

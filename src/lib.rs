@@ -1,0 +1,31 @@
+//! # atmosim
+//!
+//! A spectral, polarised Monte Carlo path tracer for the Earth's atmosphere,
+//! producing the reference skies that fitted sky models are built from.
+//!
+//! Conventions (shared/CONVENTIONS.md, pinned by tests): wavelengths in nm,
+//! lengths in km (f64), coefficients in km⁻¹; angles in degrees at the edges
+//! and radians inside; radiance per unit extraterrestrial solar irradiance
+//! (E0 = 1, sr⁻¹); Stokes vectors (I, Q, U, V) in the meridian frame of the
+//! viewing direction, as IPRT and libRadtran/MYSTIC define them.
+//!
+//! Data flow: job file → [`job::Job`] → [`atmosphere::Atmosphere`] (optical
+//! properties per layer and wavelength) → sensor → integrator → film → output.
+
+pub mod aerosol;
+pub mod atmosphere;
+pub mod constants;
+pub mod data;
+pub mod error;
+pub mod job;
+pub mod ozone;
+pub mod phase;
+pub mod profile;
+pub mod rayleigh;
+pub mod report;
+pub mod shell;
+pub mod solar;
+pub mod stokes;
+pub mod visibility;
+
+pub use error::{Error, Result};
