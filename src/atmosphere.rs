@@ -10,7 +10,7 @@ use crate::aerosol::Aerosol;
 use crate::constants::{CM_PER_KM, VISIBILITY_WAVELENGTH_NM};
 use crate::error::{Error, Result};
 use crate::ozone::{CrossSection, OzoneModel};
-use crate::profile::GasProfile;
+use crate::profile::{GasProfile, exp_first_moment, exp_mean};
 use crate::rayleigh::{self, RayleighModel};
 use crate::visibility::{GroundExtinction, Visibility};
 
@@ -115,6 +115,52 @@ pub struct Atmosphere {
     pub visibility: Option<Visibility>,
     /// Ozone column (DU) between the ground and the top, for profiles.
     pub ozone_column_du: Option<f64>,
+    /// How density varies inside each layer, for the `smooth` medium;
+    /// `None` for explicit layers (which are homogeneous by definition).
+    pub layer_shapes: Option<Vec<LayerShape>>,
+}
+
+/// The variation of the gas densities inside one layer, from the profile's
+/// levels: air density exponential (ratio top/bottom), ozone mixing ratio
+/// linear. The layer's mean coefficients are unchanged by it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LayerShape {
+    /// n_air(top) / n_air(bottom).
+    pub air_ratio: f64,
+    /// Ozone mixing ratio at the bottom and top of the layer.
+    pub o3_mixing: (f64, f64),
+}
+
+impl LayerShape {
+    /// Rayleigh coefficient at fraction `f` (0 bottom, 1 top) of the layer
+    /// relative to the layer mean: rᶠ / mean(rᶠ).
+    pub fn rayleigh_factor(&self, f: f64) -> f64 {
+        self.air_ratio.powf(f) / exp_mean(self.air_ratio)
+    }
+
+    /// Ozone coefficient at fraction `f` relative to the layer mean.
+    pub fn ozone_factor(&self, f: f64) -> f64 {
+        let (x0, x1) = self.o3_mixing;
+        let r = self.air_ratio;
+        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
+        if mean <= 0.0 {
+            return 1.0;
+        }
+        (x0 + (x1 - x0) * f) * r.powf(f) / mean
+    }
+
+    /// Upper bounds of the two factors over the layer.
+    pub fn max_factors(&self) -> (f64, f64) {
+        let (x0, x1) = self.o3_mixing;
+        let r = self.air_ratio;
+        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
+        let ozone = if mean > 0.0 {
+            x0.max(x1) * r.max(1.0) / mean
+        } else {
+            1.0
+        };
+        (r.max(1.0) / exp_mean(r), ozone)
+    }
 }
 
 impl Atmosphere {
@@ -243,12 +289,21 @@ impl Atmosphere {
             })
             .collect();
 
+        let layer_shapes = profile
+            .levels
+            .windows(2)
+            .map(|w| LayerShape {
+                air_ratio: w[1].n_air / w[0].n_air,
+                o3_mixing: (w[0].n_o3 / w[0].n_air, w[1].n_o3 / w[1].n_air),
+            })
+            .collect();
         Ok(Atmosphere {
             levels_km: profile.levels.iter().map(|l| l.z_km).collect(),
             wavelengths_nm: wavelengths_nm.to_vec(),
             optics,
             visibility,
             ozone_column_du,
+            layer_shapes: Some(layer_shapes),
         })
     }
 
@@ -294,6 +349,7 @@ impl Atmosphere {
             optics: vec![per_layer; wavelengths_nm.len()],
             visibility: None,
             ozone_column_du: None,
+            layer_shapes: None,
         })
     }
 

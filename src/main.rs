@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use atmosim::job::Job;
-use atmosim::report;
+use atmosim::{output, render, report};
 
 #[derive(Parser)]
 #[command(
@@ -32,6 +32,25 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = FormatArg::Table)]
         format: FormatArg,
+    },
+    /// Render a job: for a `directions` sensor, a CSV of Stokes radiances
+    /// per wavelength and direction (radiance.csv) and the fluxes at the
+    /// observer level (fluxes.csv).
+    Render {
+        /// Job file (TOML).
+        job: PathBuf,
+        /// Output directory (default: the job's `[output] directory`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the radiance CSV on stdout instead of writing files.
+        #[arg(long)]
+        stdout: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress lines on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
 }
 
@@ -60,6 +79,42 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Render {
+            job,
+            out,
+            stdout,
+            threads,
+            quiet,
+        } => {
+            let job = Job::from_file(&job)?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.unwrap_or(0))
+                .build()
+                .context("starting worker threads")?;
+            let log = |msg: &str| {
+                if !quiet {
+                    eprintln!("{msg}");
+                }
+            };
+            let result = pool.install(|| render::render_job(&job, &log));
+            let radiance = output::radiance_csv(&result.radiance);
+            if stdout {
+                let mut out = std::io::stdout().lock();
+                out.write_all(radiance.as_bytes())
+                    .context("writing to stdout")?;
+                out.flush().context("writing to stdout")?;
+            } else {
+                let dir = out.unwrap_or_else(|| job.render.output_directory.clone());
+                output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
+                if !result.fluxes.is_empty() {
+                    output::write_atomic(
+                        &dir.join("fluxes.csv"),
+                        output::flux_csv(&result.fluxes).as_bytes(),
+                    )?;
+                }
+                log(&format!("wrote {}", dir.display()));
+            }
+        }
         Command::Atmosphere { job, format } => {
             let job = load_job(job.as_ref())?;
             let format = match format {

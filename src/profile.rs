@@ -210,7 +210,7 @@ pub fn saturation_vapour_pressure_hpa(t_k: f64) -> f64 {
 }
 
 /// ∫₀¹ rᶠ df = (r − 1)/ln r, with its limit 1 at r = 1.
-fn exp_mean(r: f64) -> f64 {
+pub(crate) fn exp_mean(r: f64) -> f64 {
     let l = r.ln();
     if l.abs() < 1e-6 {
         1.0 + l / 2.0 + l * l / 6.0
@@ -220,7 +220,7 @@ fn exp_mean(r: f64) -> f64 {
 }
 
 /// ∫₀¹ f·rᶠ df = r/ln r − (r − 1)/ln² r, with its limit 1/2 at r = 1.
-fn exp_first_moment(r: f64) -> f64 {
+pub(crate) fn exp_first_moment(r: f64) -> f64 {
     let l = r.ln();
     if l.abs() < 1e-4 {
         0.5 + l / 3.0 + l * l / 8.0

@@ -1,0 +1,373 @@
+//! Backward (sensor-to-sun) polarised Monte Carlo path tracing.
+//!
+//! A path starts at the observer looking along the viewing direction v and
+//! is traced against the photon direction. Its throughput is a 4×4 Mueller
+//! matrix T (scalar factors folded in) that maps a Stokes vector arriving at
+//! the current vertex, in the current reference frame, to the Stokes vector
+//! at the sensor in the meridian frame of v (shared/CONVENTIONS.md).
+//!
+//! - Free flights: delta tracking against the medium's majorant
+//!   (`tracking`). Absorption is a weight: T ← T·σ_s/σ_t at each collision.
+//! - Scattering vertex: the phase matrix is the σ_s-weighted mixture of
+//!   Rayleigh (with depolarisation) and Henyey–Greenstein aerosol, in the
+//!   scattering-plane frame (e2 = n = k_in × k_out normalised, e1 = n × k).
+//!   The path's frame is rotated into it (Stokes rotation, `stokes`).
+//! - Next-event estimation toward the sun at every scattering and ground
+//!   vertex, with the exact (analytic) or ratio-tracked transmittance; a
+//!   shadow ray that hits the planet contributes nothing. The unscattered
+//!   sun is never counted: escaping paths contribute nothing.
+//! - New directions: one component is picked with probability σ_i/σ_s and
+//!   sampled; the weight is the mixture matrix over the mixture pdf (one-
+//!   sample MIS over the components), so the I-weight stays 1.
+//! - Ground: Lambertian and depolarising with albedo a; NEE adds
+//!   T·(a/π)·μ_sun·T_sun, continuation samples the cosine lobe (weight a).
+//! - Russian roulette on T₀₀ (which bounds every element of a product of
+//!   Mueller matrices) after the second vertex: survival probability
+//!   min(1, T₀₀/0.1), the survivor divided by it — unbiased.
+//!
+//! Radiance is per unit solar irradiance normal to the beam (E0 = 1).
+
+use std::f64::consts::{FRAC_1_PI, PI};
+
+use glam::DVec3;
+
+use crate::medium::{Medium, PointCoefficients};
+use crate::phase::{PhaseFunction, orthonormal_basis};
+use crate::sampler::Sampler;
+use crate::shell::Geometry;
+use crate::stokes::{Mueller, Stokes, meridian_frame, rotation_angle};
+use crate::sun::Sun;
+use crate::tracking::{self, FlightEnd, Ray};
+
+/// How shadow rays toward the sun get their transmittance (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SunTransmittance {
+    Analytic,
+    RatioTracking,
+}
+
+/// Settings of the transport.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    pub polarized: bool,
+    /// Highest scattering order counted (ground reflections included); 0 =
+    /// unlimited.
+    pub max_scattering_order: u32,
+    pub sun_transmittance: SunTransmittance,
+}
+
+/// Everything a path needs at one wavelength.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub geometry: Geometry,
+    pub medium: Medium,
+    pub sun: Sun,
+    pub albedo: f64,
+    pub settings: Settings,
+}
+
+const INV_4PI: f64 = 0.25 * FRAC_1_PI;
+/// Throughput below which Russian roulette starts.
+const ROULETTE_THRESHOLD: f64 = 0.1;
+
+impl Scene {
+    /// Position of an observer at `altitude_km` (on the z axis).
+    pub fn observer_position(&self, altitude_km: f64) -> DVec3 {
+        match self.geometry {
+            Geometry::Spherical { radius_km } => DVec3::new(0.0, 0.0, radius_km + altitude_km),
+            Geometry::PlaneParallel => DVec3::new(0.0, 0.0, altitude_km),
+        }
+    }
+
+    /// One sample of the diffuse Stokes radiance arriving at the observer
+    /// from viewing direction `view` (unit, observer frame), in the meridian
+    /// frame of `view` (`phi_fallback` fixes it at the zenith and nadir).
+    pub fn radiance_sample(
+        &self,
+        altitude_km: f64,
+        view: DVec3,
+        phi_fallback: f64,
+        sampler: &mut Sampler,
+    ) -> Stokes {
+        let origin = self.observer_position(altitude_km);
+        let up = self.geometry.up(origin);
+        let (e1, _) = meridian_frame(view, phi_fallback);
+        let mut path = Path {
+            throughput: Mueller::identity(),
+            frame_e1: e1,
+            order: 0,
+            radiance: Stokes::zero(),
+        };
+        let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up))
+        else {
+            // Looking down from the ground: the ground itself at distance 0.
+            if altitude_km <= self.medium.levels_km()[0] && view.dot(up) < 0.0 {
+                self.trace_from_ground(&mut path, origin, -view, sampler);
+            }
+            return path.radiance;
+        };
+        self.trace(
+            &mut path,
+            Ray {
+                origin,
+                dir: view,
+                layer,
+            },
+            sampler,
+        );
+        path.radiance
+    }
+
+    fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
+        loop {
+            match tracking::delta_track(&self.medium, &self.geometry, &ray, sampler) {
+                FlightEnd::Collided(c) => {
+                    let x = ray.origin + c.t * ray.dir;
+                    let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
+                    let k_out = -ray.dir;
+                    path.throughput = path.throughput * (coeffs.sigma_s() / coeffs.sigma_t);
+                    path.order += 1;
+                    self.sun_from_scattering(path, x, c.layer, k_out, &coeffs, sampler);
+                    if self.order_done(path.order) {
+                        return;
+                    }
+                    // Sample the direction the light came from.
+                    let component = self.pick_component(&coeffs, sampler.next());
+                    let (k_in, _) = component.sample_direction(k_out, sampler.next2());
+                    let (m, p11) = self.mixture(&coeffs, k_in.dot(k_out));
+                    let weight = m * (1.0 / p11);
+                    path.scatter(&weight, k_in, k_out, self.settings.polarized);
+                    if !path.roulette(sampler) {
+                        return;
+                    }
+                    let dir = -k_in;
+                    let layer = self.layer_after(c.layer, x, dir);
+                    ray = Ray {
+                        origin: x,
+                        dir,
+                        layer,
+                    };
+                }
+                FlightEnd::Ground { t } => {
+                    let x = ray.origin + t * ray.dir;
+                    if !self.trace_from_ground(path, x, -ray.dir, sampler) {
+                        return;
+                    }
+                    let up = self.geometry.up(x);
+                    let dir = cosine_hemisphere(up, sampler.next2());
+                    ray = Ray {
+                        origin: x,
+                        dir,
+                        layer: 0,
+                    };
+                }
+                FlightEnd::Top { .. } | FlightEnd::Endless => return,
+            }
+        }
+    }
+
+    /// Ground vertex at `x` reached by light leaving along `k_out`: NEE to
+    /// the sun, then the Lambertian weight. Returns whether the path goes on.
+    fn trace_from_ground(
+        &self,
+        path: &mut Path,
+        x: DVec3,
+        _k_out: DVec3,
+        sampler: &mut Sampler,
+    ) -> bool {
+        if self.albedo <= 0.0 {
+            return false;
+        }
+        path.order += 1;
+        let up = self.geometry.up(x);
+        let s = self.sun.sample_direction(sampler.next2());
+        let mu_s = s.dot(up);
+        if mu_s > 0.0 {
+            let tr = self.sun_transmittance(
+                Ray {
+                    origin: x,
+                    dir: s,
+                    layer: 0,
+                },
+                sampler,
+            );
+            if tr > 0.0 {
+                let f = self.albedo * FRAC_1_PI * mu_s * tr;
+                path.add_unpolarized_source(f);
+            }
+        }
+        if self.order_done(path.order) {
+            return false;
+        }
+        // Lambertian continuation: BRDF·cos/pdf = a; the ground depolarises.
+        path.depolarize(self.albedo);
+        path.roulette(sampler)
+    }
+
+    fn sun_from_scattering(
+        &self,
+        path: &mut Path,
+        x: DVec3,
+        layer: usize,
+        k_out: DVec3,
+        coeffs: &PointCoefficients,
+        sampler: &mut Sampler,
+    ) {
+        let s = self.sun.sample_direction(sampler.next2());
+        let layer = self.layer_after(layer, x, s);
+        let tr = self.sun_transmittance(
+            Ray {
+                origin: x,
+                dir: s,
+                layer,
+            },
+            sampler,
+        );
+        if tr <= 0.0 {
+            return;
+        }
+        let k_in = -s;
+        let (m, _) = self.mixture(coeffs, k_in.dot(k_out));
+        // Phase matrix normalised per steradian: P/(4π).
+        let column = path.rotated_column(&m, k_in, k_out, self.settings.polarized);
+        path.radiance += column * (tr * INV_4PI);
+    }
+
+    fn sun_transmittance(&self, ray: Ray, sampler: &mut Sampler) -> f64 {
+        match self.settings.sun_transmittance {
+            SunTransmittance::Analytic => {
+                tracking::analytic_transmittance(&self.medium, &self.geometry, &ray)
+            }
+            SunTransmittance::RatioTracking => {
+                tracking::ratio_tracking_transmittance(&self.medium, &self.geometry, &ray, sampler)
+            }
+        }
+    }
+
+    /// The layer a ray from collision point `x` (in `layer`) enters: the
+    /// same layer, as a collision lies strictly inside its layer.
+    fn layer_after(&self, layer: usize, _x: DVec3, _dir: DVec3) -> usize {
+        layer
+    }
+
+    fn order_done(&self, order: u32) -> bool {
+        self.settings.max_scattering_order != 0 && order >= self.settings.max_scattering_order
+    }
+
+    fn pick_component(&self, c: &PointCoefficients, u: f64) -> PhaseFunction {
+        if u * c.sigma_s() < c.sigma_rayleigh {
+            PhaseFunction::Rayleigh {
+                depolarization: c.rayleigh_depolarization,
+            }
+        } else {
+            PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }
+        }
+    }
+
+    /// The σ_s-weighted mixture phase matrix and its P11 at cos Θ.
+    fn mixture(&self, c: &PointCoefficients, cos_theta: f64) -> (Mueller, f64) {
+        let sigma_s = c.sigma_s();
+        let (wr, wa) = (c.sigma_rayleigh / sigma_s, c.sigma_aerosol_sca / sigma_s);
+        let mut m = Mueller::zero();
+        if wr > 0.0 {
+            m += PhaseFunction::Rayleigh {
+                depolarization: c.rayleigh_depolarization,
+            }
+            .mueller(cos_theta)
+                * wr;
+        }
+        if wa > 0.0 {
+            m += PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.mueller(cos_theta) * wa;
+        }
+        let p11 = m.0[0][0];
+        (m, p11)
+    }
+}
+
+/// The state of one path.
+struct Path {
+    throughput: Mueller,
+    /// Reference axis e1 of the Stokes frame of the light arriving at the
+    /// current vertex (perpendicular to its propagation direction).
+    frame_e1: DVec3,
+    order: u32,
+    radiance: Stokes,
+}
+
+impl Path {
+    /// T · R(ψ) · M · (1, 0, 0, 0): the sensor Stokes vector of unpolarised
+    /// unit light scattered from k_in into k_out with matrix M.
+    fn rotated_column(&self, m: &Mueller, k_in: DVec3, k_out: DVec3, polarized: bool) -> Stokes {
+        let source = Stokes::new(1.0, 0.0, 0.0, 0.0);
+        if !polarized {
+            return self.throughput * Stokes::new(m.0[0][0], 0.0, 0.0, 0.0);
+        }
+        let (psi, _) = scattering_frame(self.frame_e1, k_in, k_out);
+        let scattered = *m * source;
+        self.throughput * scattered.rotated(psi)
+    }
+
+    /// Applies a scattering from k_in into k_out with (weighted) matrix `w`.
+    fn scatter(&mut self, w: &Mueller, k_in: DVec3, k_out: DVec3, polarized: bool) {
+        if !polarized {
+            self.throughput = self.throughput * Mueller::depolarizer(w.0[0][0]);
+            return;
+        }
+        let (psi, e1_in) = scattering_frame(self.frame_e1, k_in, k_out);
+        self.throughput = self.throughput * Mueller::rotation(psi) * *w;
+        self.frame_e1 = e1_in;
+    }
+
+    /// Lambertian reflection: depolarises, scales by the albedo.
+    fn depolarize(&mut self, albedo: f64) {
+        self.throughput = self.throughput * Mueller::depolarizer(albedo);
+    }
+
+    /// Adds an unpolarised source of radiance `f` seen through the path.
+    fn add_unpolarized_source(&mut self, f: f64) {
+        let t = &self.throughput.0;
+        self.radiance += Stokes::new(t[0][0], t[1][0], t[2][0], t[3][0]) * f;
+    }
+
+    /// Russian roulette on T₀₀ after the second vertex.
+    fn roulette(&mut self, sampler: &mut Sampler) -> bool {
+        let w = self.throughput.0[0][0];
+        if self.order < 2 || w >= ROULETTE_THRESHOLD {
+            return w > 0.0;
+        }
+        let q = w / ROULETTE_THRESHOLD;
+        if sampler.next() >= q {
+            return false;
+        }
+        self.throughput = self.throughput * (1.0 / q);
+        true
+    }
+}
+
+/// The rotation ψ from the path's frame (axis `e1_out`, light along k_out)
+/// into the scattering-plane frame of k_out, and the scattering-plane axis
+/// e1 for the incoming light k_in. Scattering plane normal n = k_in × k_out;
+/// e1 = n × k. For forward or backward scattering the plane is undefined and
+/// the path's own frame is kept.
+fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (f64, DVec3) {
+    let cross = k_in.cross(k_out);
+    let len = cross.length();
+    let n = if len > 1e-12 {
+        cross / len
+    } else {
+        k_out.cross(e1_out).normalize()
+    };
+    let e1_sc_out = n.cross(k_out);
+    let e1_in = n.cross(k_in);
+    // S(e1_out) = R(ψ) S(e1_sc_out).
+    (rotation_angle(e1_sc_out, e1_out, k_out), e1_in)
+}
+
+/// A cosine-weighted direction in the hemisphere around `up`.
+fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
+    let r = u[0].sqrt();
+    let phi = 2.0 * PI * u[1];
+    let (b1, b2) = orthonormal_basis(up);
+    let z = (1.0 - u[0]).max(0.0).sqrt();
+    (r * phi.cos() * b1 + r * phi.sin() * b2 + z * up).normalize()
+}

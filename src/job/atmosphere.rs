@@ -1,0 +1,229 @@
+//! Resolving the `[atmosphere]` section: a gas profile with its
+//! constituents, or explicit layers.
+
+use std::path::Path;
+
+use super::Ctx;
+use super::raw::{RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
+use crate::aerosol::Aerosol;
+use crate::atmosphere::{BuildError, ExplicitLayer, ProfileSpec};
+use crate::data;
+use crate::error::{Error, Result};
+use crate::ozone::OzoneModel;
+use crate::profile::GasProfile;
+use crate::rayleigh::RayleighModel;
+
+pub(super) fn resolve_profile_spec(
+    ctx: &Ctx,
+    atm: &RawAtmosphere,
+    dir: &Path,
+) -> Result<(ProfileSpec, String)> {
+    let (profile, name) = match (&atm.profile, &atm.profile_file) {
+        (Some(_), Some(_)) => {
+            return Err(ctx.invalid(
+                "atmosphere.profile_file",
+                "(given)",
+                "cannot be combined with atmosphere.profile",
+                "one of profile (a built-in name) or profile_file (a path)",
+            ));
+        }
+        (_, Some(path)) => {
+            let full = dir.join(path);
+            let text = std::fs::read_to_string(&full).map_err(|e| {
+                ctx.invalid(
+                    "atmosphere.profile_file",
+                    full.display(),
+                    &format!("cannot read the file: {e}"),
+                    "a readable AFGL-format profile (9 columns: z_km p_hPa T_K n_air n_o3 n_o2 n_h2o n_co2 n_no2)",
+                )
+            })?;
+            let p = GasProfile::parse(&full.display().to_string(), &text)?;
+            (p, full.display().to_string())
+        }
+        (name, None) => {
+            let name = name.as_deref().unwrap_or("us_standard");
+            let p = GasProfile::builtin(name).ok_or_else(|| {
+                ctx.invalid(
+                    "atmosphere.profile",
+                    format!("\"{name}\""),
+                    "unknown profile",
+                    &data::names(data::AFGL_PROFILES),
+                )
+            })??;
+            (p, name.to_string())
+        }
+    };
+    let ozone = match atm.ozone.unwrap_or(RawOzone::Bogumil) {
+        RawOzone::Bogumil => OzoneModel::Bogumil,
+        RawOzone::Molina => OzoneModel::Molina,
+        RawOzone::None => OzoneModel::None,
+    };
+    let rayleigh = match atm.rayleigh.unwrap_or(RawRayleigh::Bodhaine) {
+        RawRayleigh::Bodhaine => RayleighModel::Bodhaine,
+        RawRayleigh::None => RayleighModel::None,
+    };
+    let ozone_column_du = match atm.ozone_column_du {
+        None => None,
+        Some(_) if ozone == OzoneModel::None => {
+            return Err(ctx.invalid(
+                "atmosphere.ozone_column_du",
+                "(given)",
+                "needs an ozone cross section, but atmosphere.ozone = \"none\"",
+                "leave it out, or set ozone = \"bogumil\" or \"molina\"",
+            ));
+        }
+        Some(du) => Some(ctx.range(
+            "atmosphere.ozone_column_du",
+            du,
+            0.0,
+            2000.0,
+            false,
+            "0 to 2000 DU",
+        )?),
+    };
+    let aerosol_name = atm.aerosol.as_deref().unwrap_or("continental_average");
+    let aerosol = if aerosol_name == "none" {
+        None
+    } else {
+        let a = Aerosol::builtin(aerosol_name).ok_or_else(|| {
+            ctx.invalid(
+                "atmosphere.aerosol",
+                format!("\"{aerosol_name}\""),
+                "unknown aerosol mixture",
+                &format!(
+                    "\"none\" or an OPAC mixture: {}",
+                    data::names(data::OPAC_MIXTURES)
+                ),
+            )
+        })?;
+        Some(a.map_err(|e| {
+            ctx.invalid(
+                "atmosphere.aerosol",
+                format!("\"{aerosol_name}\""),
+                &e.to_string(),
+                "continental_average, continental_clean, continental_polluted, urban",
+            )
+        })?)
+    };
+    let visibility_km = match atm.visibility_km {
+        None => None,
+        Some(_) if aerosol.is_none() => {
+            return Err(ctx.invalid(
+                "atmosphere.visibility_km",
+                "(given)",
+                "scales the aerosol, but atmosphere.aerosol = \"none\"",
+                "leave it out, or name an aerosol mixture",
+            ));
+        }
+        Some(v) => Some(ctx.range(
+            "atmosphere.visibility_km",
+            v,
+            0.0,
+            f64::MAX,
+            true,
+            "a positive number of km",
+        )?),
+    };
+    Ok((
+        ProfileSpec {
+            profile,
+            rayleigh,
+            ozone,
+            ozone_column_du,
+            aerosol,
+            visibility_km,
+        },
+        name,
+    ))
+}
+
+pub(super) fn resolve_layers(ctx: &Ctx, raw: &[RawLayer]) -> Result<Vec<ExplicitLayer>> {
+    if raw.is_empty() {
+        return Err(ctx.invalid(
+            "atmosphere.layers",
+            "[]",
+            "empty list",
+            "at least one [[atmosphere.layers]] table",
+        ));
+    }
+    raw.iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let key = |k: &str| format!("atmosphere.layers[{i}].{k}");
+            let nonneg = |k: &str, v: f64| {
+                ctx.range(&key(k), v, 0.0, f64::MAX, false, "a finite number ≥ 0")
+            };
+            let bottom_km = nonneg("bottom_km", l.bottom_km)?;
+            let top_km = ctx.range(
+                &key("top_km"),
+                l.top_km,
+                bottom_km,
+                f64::MAX,
+                true,
+                "above bottom_km",
+            )?;
+            Ok(ExplicitLayer {
+                bottom_km,
+                top_km,
+                tau_rayleigh: nonneg("tau_rayleigh", l.tau_rayleigh)?,
+                rayleigh_depolarization: ctx.range(
+                    &key("rayleigh_depolarization"),
+                    l.rayleigh_depolarization,
+                    0.0,
+                    0.5,
+                    false,
+                    "0 to 0.5",
+                )?,
+                tau_absorption: nonneg("tau_absorption", l.tau_absorption)?,
+                tau_aerosol: nonneg("tau_aerosol", l.tau_aerosol)?,
+                aerosol_ssa: ctx.range(
+                    &key("aerosol_ssa"),
+                    l.aerosol_ssa,
+                    0.0,
+                    1.0,
+                    false,
+                    "0 to 1",
+                )?,
+                aerosol_g: ctx.range(
+                    &key("aerosol_g"),
+                    l.aerosol_g,
+                    -1.0,
+                    0.999_999,
+                    true,
+                    "greater than -1, less than 1",
+                )?,
+            })
+        })
+        .collect()
+}
+
+pub(super) fn build_error(ctx: &Ctx, atm: &RawAtmosphere, e: BuildError) -> Error {
+    match e {
+        BuildError::Wavelength {
+            lambda_nm,
+            what,
+            range_nm: (lo, hi),
+        } => ctx.invalid(
+            "spectrum.wavelengths_nm",
+            lambda_nm,
+            &format!("outside the data of {what}"),
+            &format!("{lo} to {hi} nm"),
+        ),
+        BuildError::Visibility { requested_km, max_km } => ctx.invalid(
+            "atmosphere.visibility_km",
+            requested_km,
+            &format!(
+                "cannot be reached with aerosol `{}`: the largest reachable visibility is {max_km:.1} km (no boundary-layer aerosol)",
+                atm.aerosol.as_deref().unwrap_or("continental_average")
+            ),
+            &format!("greater than 0 and less than {max_km:.1} km"),
+        ),
+        BuildError::OzoneColumn => ctx.invalid(
+            "atmosphere.ozone_column_du",
+            atm.ozone_column_du.unwrap_or(0.0),
+            "the profile has no ozone to scale",
+            "a profile with ozone",
+        ),
+        BuildError::Data(message) => Error::data("built-in data", message),
+    }
+}

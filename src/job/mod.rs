@@ -1,0 +1,303 @@
+//! Job files: the raw TOML schema (serde, unknown keys refused) and the
+//! resolved, validated job with tables loaded and the atmosphere built.
+//!
+//! Every error names the file and the key, with the value and the valid
+//! range; TOML syntax and schema errors carry TOML's line and column.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::atmosphere::Atmosphere;
+use crate::error::{Error, Result};
+use crate::integrator::Scene;
+use crate::medium::Medium;
+use crate::ozone::OzoneModel;
+use crate::rayleigh::RayleighModel;
+use crate::shell::Geometry;
+use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
+use raw::RawJob;
+
+/// Default planet radius (km): the sky model's (libRadtran uses 6370).
+pub const DEFAULT_RADIUS_KM: f64 = 6378.0;
+/// Default top of the atmosphere (km).
+pub const DEFAULT_TOP_KM: f64 = 100.0;
+/// Default wavelengths (nm): the seed's validation wavelengths.
+pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
+
+mod atmosphere;
+mod raw;
+mod render;
+
+pub use render::RenderSpec;
+
+// Resolved job
+
+/// Planet geometry (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GeometryKind {
+    Spherical,
+    PlaneParallel,
+}
+
+/// The planet: radius, top of the atmosphere and geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Planet {
+    pub radius_km: f64,
+    pub top_km: f64,
+    pub geometry: GeometryKind,
+}
+
+/// What the atmosphere was built from, for reports.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AtmosphereSource {
+    Profile {
+        profile: String,
+        ozone: OzoneModel,
+        rayleigh: RayleighModel,
+        aerosol: Option<String>,
+    },
+    Layers,
+}
+
+/// A validated job.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// The job file (or `<built-in default>`), for messages.
+    pub file: String,
+    pub planet: Planet,
+    pub observer_altitude_km: f64,
+    pub wavelengths_nm: Vec<f64>,
+    pub source: AtmosphereSource,
+    pub atmosphere: Atmosphere,
+    pub render: RenderSpec,
+}
+
+/// Validation context: the file name for every error.
+
+pub(super) struct Ctx<'a> {
+    pub(super) file: &'a str,
+}
+
+impl Ctx<'_> {
+    pub(super) fn invalid(
+        &self,
+        key: &str,
+        value: impl std::fmt::Display,
+        reason: &str,
+        valid: &str,
+    ) -> Error {
+        Error::InvalidValue {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            value: value.to_string(),
+            reason: reason.to_string(),
+            valid: valid.to_string(),
+        }
+    }
+
+    /// A finite number within [lo, hi] (inclusive by the flags).
+    pub(super) fn range(
+        &self,
+        key: &str,
+        v: f64,
+        lo: f64,
+        hi: f64,
+        lo_open: bool,
+        valid: &str,
+    ) -> Result<f64> {
+        let ok = v.is_finite() && (if lo_open { v > lo } else { v >= lo }) && v <= hi;
+        if ok {
+            Ok(v)
+        } else if !v.is_finite() {
+            Err(self.invalid(key, v, "not a finite number", valid))
+        } else {
+            Err(self.invalid(key, v, "out of range", valid))
+        }
+    }
+}
+
+impl Job {
+    /// The planet's geometry for the tracer.
+    pub fn geometry(&self) -> Geometry {
+        match self.planet.geometry {
+            GeometryKind::Spherical => Geometry::Spherical {
+                radius_km: self.planet.radius_km,
+            },
+            GeometryKind::PlaneParallel => Geometry::PlaneParallel,
+        }
+    }
+
+    /// The scene at wavelength index `w`.
+    pub fn scene(&self, w: usize) -> Scene {
+        Scene {
+            geometry: self.geometry(),
+            medium: Medium::new(
+                &self.atmosphere,
+                w,
+                self.render.medium,
+                self.render.majorant_scale,
+            ),
+            sun: self.render.sun,
+            albedo: self.render.albedo,
+            settings: self.render.settings,
+        }
+    }
+
+    /// The built-in default job: US-standard atmosphere, Bogumil ozone,
+    /// OPAC continental_average (unscaled, ≈ 59 km visibility), 420, 540
+    /// and 620 nm, spherical planet of 6378 km with a 100 km top.
+    pub fn builtin_default() -> Result<Job> {
+        Self::parse("", "<built-in default>", Path::new("."))
+    }
+
+    /// Reads and resolves a job file.
+    pub fn from_file(path: &Path) -> Result<Job> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        Self::parse(&text, &path.display().to_string(), dir)
+    }
+
+    /// Resolves job text; `file` names it in errors and relative paths in it
+    /// are taken from `dir`.
+    pub fn parse(text: &str, file: &str, dir: &Path) -> Result<Job> {
+        let raw: RawJob = toml::from_str(text).map_err(|e| Error::JobSyntax {
+            file: file.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        let ctx = Ctx { file };
+        let planet_raw = raw.planet.unwrap_or_default();
+        let atm = raw.atmosphere.unwrap_or_default();
+
+        let radius_km = ctx.range(
+            "planet.radius_km",
+            planet_raw.radius_km.unwrap_or(DEFAULT_RADIUS_KM),
+            0.0,
+            1.0e6,
+            true,
+            "a positive number of km, e.g. 6378 (sky model) or 6370 (libRadtran)",
+        )?;
+        let geometry = planet_raw.geometry.unwrap_or(GeometryKind::Spherical);
+
+        let wavelengths_nm = match raw.spectrum.and_then(|s| s.wavelengths_nm) {
+            None => DEFAULT_WAVELENGTHS_NM.to_vec(),
+            Some(w) if w.is_empty() => {
+                return Err(ctx.invalid(
+                    "spectrum.wavelengths_nm",
+                    "[]",
+                    "empty list",
+                    "at least one wavelength in nm",
+                ));
+            }
+            Some(w) => {
+                for &l in &w {
+                    ctx.range(
+                        "spectrum.wavelengths_nm",
+                        l,
+                        0.0,
+                        f64::MAX,
+                        true,
+                        "positive wavelengths in nm",
+                    )?;
+                }
+                w
+            }
+        };
+
+        let (source, atmosphere, top_km) = if let Some(layers) = &atm.layers {
+            let given: Vec<&str> = [
+                ("profile", atm.profile.is_some()),
+                ("profile_file", atm.profile_file.is_some()),
+                ("ozone", atm.ozone.is_some()),
+                ("ozone_column_du", atm.ozone_column_du.is_some()),
+                ("rayleigh", atm.rayleigh.is_some()),
+                ("aerosol", atm.aerosol.is_some()),
+                ("visibility_km", atm.visibility_km.is_some()),
+            ]
+            .iter()
+            .filter(|(_, g)| *g)
+            .map(|(k, _)| *k)
+            .collect();
+            if let Some(k) = given.first() {
+                return Err(ctx.invalid(
+                    &format!("atmosphere.{k}"),
+                    "(given)",
+                    "cannot be combined with atmosphere.layers, which replace the profile",
+                    "either [[atmosphere.layers]] or the profile keys",
+                ));
+            }
+            let layers = resolve_layers(&ctx, layers)?;
+            let atmosphere = Atmosphere::from_layers(&layers, &wavelengths_nm)?;
+            let top = atmosphere.top_km();
+            if let Some(t) = planet_raw.top_km.filter(|&t| t != top) {
+                return Err(ctx.invalid(
+                    "planet.top_km",
+                    t,
+                    "differs from the top of the explicit layers",
+                    &format!("{top} (or leave it out)"),
+                ));
+            }
+            (AtmosphereSource::Layers, atmosphere, top)
+        } else {
+            let (spec, name) = resolve_profile_spec(&ctx, &atm, dir)?;
+            let profile_top = spec.profile.top_km();
+            let top_km = ctx.range(
+                "planet.top_km",
+                planet_raw.top_km.unwrap_or(DEFAULT_TOP_KM.min(profile_top)),
+                spec.profile.ground_km(),
+                profile_top,
+                true,
+                &format!("above the ground, at most the profile's top, {profile_top} km"),
+            )?;
+            let atmosphere = Atmosphere::from_profile(&spec, top_km, &wavelengths_nm)
+                .map_err(|e| build_error(&ctx, &atm, e))?;
+            let source = AtmosphereSource::Profile {
+                profile: name,
+                ozone: spec.ozone,
+                rayleigh: spec.rayleigh,
+                aerosol: spec.aerosol.as_ref().map(|a| a.mixture.name.clone()),
+            };
+            (source, atmosphere, top_km)
+        };
+
+        let observer_altitude_km = raw.observer.and_then(|o| o.altitude_km).unwrap_or(0.0);
+        let ground = atmosphere.levels_km[0];
+        if !observer_altitude_km.is_finite()
+            || observer_altitude_km < ground
+            || observer_altitude_km > top_km
+        {
+            return Err(ctx.invalid(
+                "observer.altitude_km",
+                observer_altitude_km,
+                if observer_altitude_km > top_km {
+                    "the observer is above the top of the atmosphere"
+                } else {
+                    "out of range"
+                },
+                &format!("from the ground ({ground} km) to planet.top_km ({top_km} km)"),
+            ));
+        }
+
+        let render = render::resolve(
+            &ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output,
+        )?;
+
+        Ok(Job {
+            file: file.to_string(),
+            planet: Planet {
+                radius_km,
+                top_km,
+                geometry,
+            },
+            observer_altitude_km,
+            wavelengths_nm,
+            source,
+            atmosphere,
+            render,
+        })
+    }
+}

@@ -1,0 +1,156 @@
+//! The raw job-file schema: serde structs that refuse unknown keys. The
+//! resolved, validated job is in the parent module.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+use super::GeometryKind;
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawJob {
+    pub(super) planet: Option<RawPlanet>,
+    pub(super) atmosphere: Option<RawAtmosphere>,
+    pub(super) spectrum: Option<RawSpectrum>,
+    pub(super) observer: Option<RawObserver>,
+    pub(super) sun: Option<RawSun>,
+    pub(super) ground: Option<RawGround>,
+    pub(super) sensor: Option<RawSensor>,
+    pub(super) render: Option<RawRender>,
+    pub(super) output: Option<RawOutput>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPlanet {
+    pub(super) radius_km: Option<f64>,
+    pub(super) top_km: Option<f64>,
+    pub(super) geometry: Option<GeometryKind>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawAtmosphere {
+    pub(super) profile: Option<String>,
+    pub(super) profile_file: Option<PathBuf>,
+    pub(super) ozone: Option<RawOzone>,
+    pub(super) ozone_column_du: Option<f64>,
+    pub(super) rayleigh: Option<RawRayleigh>,
+    pub(super) aerosol: Option<String>,
+    pub(super) visibility_km: Option<f64>,
+    pub(super) layers: Option<Vec<RawLayer>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLayer {
+    pub(super) bottom_km: f64,
+    pub(super) top_km: f64,
+    #[serde(default)]
+    pub(super) tau_rayleigh: f64,
+    #[serde(default)]
+    pub(super) rayleigh_depolarization: f64,
+    #[serde(default)]
+    pub(super) tau_absorption: f64,
+    #[serde(default)]
+    pub(super) tau_aerosol: f64,
+    #[serde(default = "one")]
+    pub(super) aerosol_ssa: f64,
+    #[serde(default)]
+    pub(super) aerosol_g: f64,
+}
+
+pub(super) fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawOzone {
+    Bogumil,
+    Molina,
+    None,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawRayleigh {
+    Bodhaine,
+    None,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSpectrum {
+    pub(super) wavelengths_nm: Option<Vec<f64>>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawObserver {
+    pub(super) altitude_km: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSun {
+    pub(super) zenith_deg: Option<f64>,
+    pub(super) elevation_deg: Option<f64>,
+    pub(super) angular_radius_deg: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawGround {
+    pub(super) albedo: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawSensorKind {
+    Directions,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSensor {
+    #[serde(rename = "type")]
+    pub(super) kind: Option<RawSensorKind>,
+    pub(super) view_zenith_deg: Option<Vec<f64>>,
+    pub(super) azimuth_deg: Option<Vec<f64>>,
+    pub(super) directions: Option<Vec<[f64; 2]>>,
+    pub(super) fluxes: Option<bool>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawMedium {
+    Layered,
+    Smooth,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawSunTransmittance {
+    Analytic,
+    RatioTracking,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRender {
+    pub(super) samples: Option<u64>,
+    pub(super) seed: Option<u64>,
+    pub(super) polarized: Option<bool>,
+    pub(super) max_scattering_order: Option<u32>,
+    pub(super) medium: Option<RawMedium>,
+    pub(super) sun_transmittance: Option<RawSunTransmittance>,
+    pub(super) majorant_scale: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawOutput {
+    pub(super) directory: Option<PathBuf>,
+}
