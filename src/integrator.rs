@@ -132,7 +132,7 @@ impl Scene {
                         return;
                     }
                     // Sample the direction the light came from.
-                    let component = self.pick_component(&coeffs, sampler.next());
+                    let component = self.pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
                     let (m, p11) = self.mixture(&coeffs, k_in.dot(k_out));
                     let weight = m * (1.0 / p11);
@@ -336,7 +336,7 @@ impl Path {
             return w > 0.0;
         }
         let q = w / ROULETTE_THRESHOLD;
-        if sampler.next() >= q {
+        if sampler.next_f64() >= q {
             return false;
         }
         self.throughput = self.throughput * (1.0 / q);

@@ -65,13 +65,11 @@ impl Tally {
     /// Standard error of the mean per component.
     pub fn standard_error(&self) -> [f64; 4] {
         let n = self.samples as f64;
-        let mut se = [0.0; 4];
-        for k in 0..4 {
+        std::array::from_fn(|k| {
             let m = self.sum[k] / n;
             let var = (self.sum_sq[k] / n - m * m).max(0.0) * n / (n - 1.0).max(1.0);
-            se[k] = (var / n).sqrt();
-        }
-        se
+            (var / n).sqrt()
+        })
     }
 }
 

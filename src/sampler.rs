@@ -36,14 +36,14 @@ impl Sampler {
 
     /// A uniform variate in [0, 1) with 53 random bits.
     #[inline]
-    pub fn next(&mut self) -> f64 {
+    pub fn next_f64(&mut self) -> f64 {
         (self.rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
     /// Two uniform variates.
     #[inline]
     pub fn next2(&mut self) -> [f64; 2] {
-        [self.next(), self.next()]
+        [self.next_f64(), self.next_f64()]
     }
 }
 
@@ -55,11 +55,11 @@ mod tests {
     fn streams_are_reproducible_and_distinct() {
         let draw = |keys: &[u64]| {
             let mut s = Sampler::new(keys);
-            (0..4).map(|_| s.next()).collect::<Vec<f64>>()
+            (0..4).map(|_| s.next_f64()).collect::<Vec<f64>>()
         };
         assert_eq!(draw(&[1, 2, 3]), draw(&[1, 2, 3]));
         assert_ne!(draw(&[1, 2, 3]), draw(&[1, 2, 4]));
-        assert_ne!(Sampler::new(&[0, 1]).next(), Sampler::new(&[1, 0]).next());
+        assert_ne!(Sampler::new(&[0, 1]).next_f64(), Sampler::new(&[1, 0]).next_f64());
     }
 
     #[test]
@@ -67,7 +67,7 @@ mod tests {
         // Mean 1/2 and variance 1/12 within 4 standard errors.
         let n = 200_000;
         let mut s = Sampler::new(&[7]);
-        let xs: Vec<f64> = (0..n).map(|_| s.next()).collect();
+        let xs: Vec<f64> = (0..n).map(|_| s.next_f64()).collect();
         assert!(xs.iter().all(|&x| (0.0..1.0).contains(&x)));
         let mean = xs.iter().sum::<f64>() / n as f64;
         let se = (1.0f64 / 12.0 / n as f64).sqrt();

@@ -129,7 +129,7 @@ pub fn sample_t_maj(
     sampler: &mut Sampler,
     mut on_collision: impl FnMut(&Collision, &mut Sampler) -> bool,
 ) -> FlightEnd {
-    let mut tau_left = -(1.0 - sampler.next()).ln();
+    let mut tau_left = -(1.0 - sampler.next_f64()).ln();
     let mut hit = None;
     let end = walk(geometry, medium.levels_km(), ray, |seg| {
         let sigma = medium.sigma_maj(seg.layer);
@@ -153,7 +153,7 @@ pub fn sample_t_maj(
                 return ControlFlow::Break(());
             }
             t0 = t;
-            tau_left = -(1.0 - sampler.next()).ln();
+            tau_left = -(1.0 - sampler.next_f64()).ln();
         }
     });
     match (hit, end) {
@@ -178,7 +178,7 @@ pub fn delta_track(
         }
         let z = geometry.altitude(ray.origin + c.t * ray.dir);
         let p_real = medium.at(c.layer, z).sigma_t / c.sigma_maj;
-        s.next() >= p_real
+        s.next_f64() >= p_real
     })
 }
 
@@ -393,7 +393,7 @@ mod tests {
                     ControlFlow::Continue(())
                 }
             });
-            let p = (-tau as f64).exp();
+            let p = (-tau).exp();
             let frac = ts.iter().filter(|&&t| t > dist).count() as f64 / n as f64;
             let se = (p * (1.0 - p) / n as f64).sqrt();
             assert!((frac - p).abs() < 4.0 * se, "{dist} km: {frac} vs {p}");

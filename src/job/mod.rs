@@ -75,7 +75,6 @@ pub struct Job {
 }
 
 /// Validation context: the file name for every error.
-
 pub(super) struct Ctx<'a> {
     pub(super) file: &'a str,
 }
