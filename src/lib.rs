@@ -30,6 +30,7 @@ pub mod report;
 pub mod sampler;
 pub mod shell;
 pub mod solar;
+pub mod stats;
 pub mod stokes;
 pub mod sun;
 pub mod tracking;

@@ -1,0 +1,112 @@
+//! `atmosim render` run as a user runs it: the CSV outputs, --stdout, and
+//! bad render keys (exit code 2, nothing written).
+
+use assert_cmd::Command;
+
+fn atmosim() -> Command {
+    Command::cargo_bin("atmosim").unwrap()
+}
+
+const SMALL: &str = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [550.0]\n\
+                     [sun]\nzenith_deg = 30.0\n[ground]\nalbedo = 0.3\n\
+                     [sensor]\ndirections = [[0.0, 0.0], [60.0, 90.0]]\n[render]\nsamples = 2000\n";
+
+#[test]
+fn render_writes_radiance_and_flux_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("job.toml");
+    std::fs::write(&job, SMALL).unwrap();
+    let out = dir.path().join("out");
+    let status = atmosim()
+        .arg("render")
+        .arg(&job)
+        .arg("--out")
+        .arg(&out)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let radiance = std::fs::read_to_string(out.join("radiance.csv")).unwrap();
+    let mut lines = radiance.lines();
+    assert_eq!(
+        lines.next(),
+        Some(
+            "wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples"
+        )
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        assert_eq!(r.len(), 13);
+        assert!(r[4] > 0.0 && r[8] > 0.0 && r[12] == 2000.0);
+    }
+    let fluxes = std::fs::read_to_string(out.join("fluxes.csv")).unwrap();
+    assert!(fluxes.starts_with(
+        "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples\n"
+    ));
+    let f: Vec<f64> = fluxes
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    // E_dir = μ0·exp(−τ/μ0) is between 0 and μ0 = cos 30°.
+    assert!(f[3] > 0.0 && f[3] < 30f64.to_radians().cos());
+}
+
+#[test]
+fn stdout_prints_the_radiance_csv_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("job.toml");
+    std::fs::write(&job, SMALL).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--stdout", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .starts_with("wavelength_nm,albedo,")
+    );
+    assert!(!dir.path().join("out").exists());
+}
+
+#[test]
+fn bad_render_keys_are_refused_before_anything_is_written() {
+    for (extra, key) in [
+        ("[sun]\nelevation_deg = 95.0\n", "sun.elevation_deg"),
+        ("[ground]\nalbedo = 1.5\n", "ground.albedo"),
+        (
+            "[sensor]\nview_zenith_deg = [190.0]\n",
+            "sensor.view_zenith_deg",
+        ),
+        ("[render]\nsamples = 0\n", "render.samples"),
+        ("[render]\nmedium = \"lumpy\"\n", "lumpy"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let job = dir.path().join("job.toml");
+        std::fs::write(
+            &job,
+            format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}"),
+        )
+        .unwrap();
+        let out = atmosim()
+            .current_dir(dir.path())
+            .args(["render", "job.toml"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{key}: {err}");
+        assert!(err.contains(key), "{key} not named: {err}");
+        assert!(!dir.path().join("out").exists());
+    }
+}

@@ -1,0 +1,114 @@
+//! Helpers shared by the validation tests: reading the project's reference
+//! tables, building jobs, and the z statistics of the issue (z = difference
+//! over the combined standard error, Šidák threshold for a 1 % family-wise
+//! false-alarm rate).
+#![allow(dead_code)]
+
+use std::path::Path;
+
+use atmosim::data::Table;
+use atmosim::job::Job;
+use atmosim::render::{Direction, Tally, render_directions};
+use atmosim::stats::sidak_threshold;
+
+/// Reads a table of the repository (validation/…).
+pub fn table(rel: &str) -> Table {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    Table::parse(rel, &text, 0).unwrap()
+}
+
+/// Parses a job from TOML text.
+pub fn job(text: &str) -> Job {
+    Job::parse(text, "test.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+/// Samples per direction for CI, overridable with ATMOSIM_VALIDATION_SAMPLES.
+pub fn samples(default: u64) -> u64 {
+    std::env::var("ATMOSIM_VALIDATION_SAMPLES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Renders `directions` of wavelength index 0 of `job` at `altitude_km`.
+pub fn render(job: &Job, altitude_km: f64, directions: &[Direction], samples: u64) -> Vec<Tally> {
+    render_directions(
+        &job.scene(0),
+        altitude_km,
+        directions,
+        samples,
+        job.render.seed,
+        0,
+    )
+}
+
+/// A family of comparisons with a reference.
+#[derive(Default)]
+pub struct Comparison {
+    pub z: Vec<f64>,
+    pub worst: String,
+    pub max_abs_z: f64,
+}
+
+impl Comparison {
+    /// Adds one value: atmosim's mean and standard error, the reference and
+    /// its standard error (0 for exact references: a floor of `ref_floor`).
+    pub fn add(
+        &mut self,
+        what: impl FnOnce() -> String,
+        mean: f64,
+        se: f64,
+        reference: f64,
+        ref_se: f64,
+    ) {
+        let combined = (se * se + ref_se * ref_se).sqrt();
+        let z = if combined > 0.0 {
+            (mean - reference) / combined
+        } else if mean == reference {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        if z.abs() > self.max_abs_z || !z.is_finite() {
+            self.max_abs_z = z.abs();
+            self.worst = format!(
+                "{}: atmosim {mean:e} ± {se:e}, reference {reference:e} ± {ref_se:e}",
+                what()
+            );
+        }
+        self.z.push(z);
+    }
+
+    /// Fraction of |z| below 1 (≈ 0.68 for honest errors).
+    pub fn within_one_sigma(&self) -> f64 {
+        self.z.iter().filter(|z| z.abs() < 1.0).count() as f64 / self.z.len() as f64
+    }
+
+    /// Asserts that no |z| exceeds the Šidák threshold; returns a summary.
+    pub fn assert_no_outlier(&self, name: &str) -> String {
+        let threshold = sidak_threshold(self.z.len(), 0.01);
+        let summary = format!(
+            "{name}: {} values, max |z| = {:.2} (threshold {threshold:.2}), {:.1} % within 1σ; worst: {}",
+            self.z.len(),
+            self.max_abs_z,
+            100.0 * self.within_one_sigma(),
+            self.worst
+        );
+        eprintln!("{summary}");
+        assert!(self.max_abs_z <= threshold, "outlier in {summary}");
+        summary
+    }
+}
+
+/// TOML of a plane-parallel atmosphere of explicit layers.
+pub fn layers_toml(layers: &[(f64, f64, f64, f64)], depol: f64) -> String {
+    let mut s = String::from("[planet]\ngeometry = \"plane_parallel\"\n");
+    for &(bottom, top, tau_r, tau_abs) in layers {
+        s.push_str(&format!(
+            "[[atmosphere.layers]]\nbottom_km = {bottom:?}\ntop_km = {top:?}\ntau_rayleigh = {tau_r:?}\n\
+             rayleigh_depolarization = {depol:?}\ntau_absorption = {tau_abs:?}\n"
+        ));
+    }
+    s
+}

@@ -1,0 +1,157 @@
+//! Physical properties of the transport core: energy conservation, the
+//! plane-parallel limit of spherical shells, determinism across thread
+//! counts, the sun below the horizon, and the direct sun kept out of sky
+//! radiance. Tolerances are multiples of the estimators' standard errors.
+
+mod common;
+
+use atmosim::render::{Direction, render_directions, render_fluxes};
+use common::{Comparison, job, layers_toml};
+
+#[test]
+fn conservative_slab_over_white_ground_reflects_all_incident_flux() {
+    // ω = 1, albedo 1: everything that enters leaves through the top, so the
+    // upward flux at the top equals μ0·E0.
+    for (tau, sza) in [(0.5, 30.0f64), (2.0, 60.0)] {
+        let text = format!(
+            "{}[ground]\nalbedo = 1.0\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n",
+            layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.03)
+        );
+        let j = job(&text);
+        let f = render_fluxes(&j.scene(0), 1.0, 100_000, 1, 0);
+        let mu0 = sza.to_radians().cos();
+        assert!(
+            (f.e_up - mu0).abs() < 4.0 * f.e_up_se,
+            "τ {tau}: E_up {} ± {} vs μ0 {mu0}",
+            f.e_up,
+            f.e_up_se
+        );
+        // Above the slab nothing comes down but the direct beam.
+        assert_eq!(f.e_down, 0.0);
+        assert!((f.e_dir - mu0).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn direct_and_diffuse_fluxes_at_the_ground_add_up_for_a_conservative_slab() {
+    // Black ground, ω = 1: E_dir + E_down at the bottom + E_up at the top = μ0.
+    let tau = 0.5;
+    let sza: f64 = 40.0;
+    let base = layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0);
+    let bottom = job(&format!("{base}[sun]\nzenith_deg = {sza:?}\n"));
+    let top = job(&format!(
+        "{base}[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n"
+    ));
+    let fb = render_fluxes(&bottom.scene(0), 0.0, 100_000, 1, 0);
+    let ft = render_fluxes(&top.scene(0), 1.0, 100_000, 1, 0);
+    let mu0 = sza.to_radians().cos();
+    assert!((fb.e_dir - mu0 * (-tau / mu0).exp()).abs() < 1e-12);
+    let total = fb.e_dir + fb.e_down + ft.e_up;
+    let se = (fb.e_down_se.powi(2) + ft.e_up_se.powi(2)).sqrt();
+    assert!((total - mu0).abs() < 4.0 * se, "{total} ± {se} vs {mu0}");
+}
+
+#[test]
+fn huge_radius_spherical_shells_agree_with_plane_parallel() {
+    let layers = "[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 2.0\ntau_rayleigh = 0.2\nrayleigh_depolarization = 0.03\ntau_aerosol = 0.1\naerosol_ssa = 0.9\naerosol_g = 0.7\n\
+                  [[atmosphere.layers]]\nbottom_km = 2.0\ntop_km = 30.0\ntau_rayleigh = 0.15\nrayleigh_depolarization = 0.03\ntau_absorption = 0.03\n";
+    let rest = "[ground]\nalbedo = 0.3\n[sun]\nzenith_deg = 50.0\n[observer]\naltitude_km = 1.0\n";
+    let pp = job(&format!(
+        "[planet]\ngeometry = \"plane_parallel\"\n{layers}{rest}"
+    ));
+    let sph = job(&format!("[planet]\nradius_km = 1.0e6\n{layers}{rest}"));
+    let dirs: Vec<Direction> = [
+        (0.0, 0.0),
+        (40.0, 30.0),
+        (75.0, 120.0),
+        (110.0, 200.0),
+        (160.0, 90.0),
+    ]
+    .iter()
+    .map(|&(z, a)| Direction {
+        view_zenith_deg: z,
+        azimuth_deg: a,
+    })
+    .collect();
+    let a = render_directions(&pp.scene(0), 1.0, &dirs, 100_000, 1, 0);
+    let b = render_directions(&sph.scene(0), 1.0, &dirs, 100_000, 2, 0);
+    let mut cmp = Comparison::default();
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        for s in 0..3 {
+            cmp.add(
+                || format!("direction {k} Stokes {s}"),
+                x.mean()[s],
+                x.standard_error()[s],
+                y.mean()[s],
+                y.standard_error()[s],
+            );
+        }
+    }
+    cmp.assert_no_outlier("plane-parallel limit");
+}
+
+#[test]
+fn output_is_bit_identical_for_any_thread_count() {
+    let j = job(
+        "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n[ground]\nalbedo = 0.2\n",
+    );
+    let dirs = [
+        Direction {
+            view_zenith_deg: 60.0,
+            azimuth_deg: 30.0,
+        },
+        Direction {
+            view_zenith_deg: 120.0,
+            azimuth_deg: 170.0,
+        },
+    ];
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| render_directions(&j.scene(0), 0.0, &dirs, 5_000, 42, 0))
+    };
+    let one = run(1);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
+
+#[test]
+fn twilight_works_and_darkens_as_the_sun_sinks() {
+    // Sun 2° and 10° below the horizon, observer at the ground and at 10 km.
+    let zenith_sky = |elev: f64, alt: f64| {
+        let j = job(&format!(
+            "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [550.0]\n[sun]\nelevation_deg = {elev:?}\n[observer]\naltitude_km = {alt:?}\n"
+        ));
+        let d = [
+            Direction {
+                view_zenith_deg: 0.0,
+                azimuth_deg: 0.0,
+            },
+            Direction {
+                view_zenith_deg: 85.0,
+                azimuth_deg: 0.0,
+            },
+        ];
+        render_directions(&j.scene(0), alt, &d, 20_000, 1, 0)
+    };
+    for alt in [0.0, 10.0] {
+        let shallow = zenith_sky(-2.0, alt);
+        let deep = zenith_sky(-10.0, alt);
+        for (s, d) in shallow.iter().zip(&deep) {
+            let (ms, md) = (s.mean()[0], d.mean()[0]);
+            assert!(ms.is_finite() && md.is_finite() && ms > 0.0 && md >= 0.0);
+            assert!(ms > 10.0 * md, "altitude {alt}: {ms} vs {md}");
+        }
+    }
+}
+
+#[test]
+fn looking_at_the_sun_through_an_empty_atmosphere_sees_nothing() {
+    let text = "[planet]\ngeometry = \"plane_parallel\"\n[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 1.0\n[sun]\nzenith_deg = 30.0\n\
+                [sensor]\ndirections = [[30.0, 0.0]]\n";
+    let j = job(text);
+    let t = render_directions(&j.scene(0), 0.0, &j.render.directions, 1_000, 1, 0);
+    assert_eq!(t[0].mean(), [0.0; 4]);
+}
