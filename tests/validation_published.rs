@@ -68,24 +68,24 @@ fn natraj_2009_subset() {
     cmp.assert_no_outlier("Natraj 2009 subset");
 }
 
-/// An IPRT A case: one Rayleigh layer 0–1 km, outputs at 0 and 1 km.
-fn iprt_a(file: &str, tau: f64, depol: f64, albedo: f64, stride: usize) -> Comparison {
+/// Compares an IPRT MYSTIC file (columns zout_km θ φ I Q U V and their
+/// standard errors) with atmosim: `job_for(zout)` is the job text for the
+/// observer at each output level; every `stride`-th direction is rendered.
+fn iprt_compare(file: &str, stride: usize, job_for: impl Fn(f64) -> String) -> Comparison {
     let t = table(file);
-    let sza: f64 = t.header("sza_deg").unwrap().parse().unwrap();
     let n = samples(30_000);
+    let mut levels: Vec<f64> = t.column(0);
+    levels.sort_by(f64::total_cmp);
+    levels.dedup();
     let mut cmp = Comparison::default();
-    for zout in [0.0, 1.0] {
+    for zout in levels {
         let rows: Vec<&Vec<f64>> = t
             .rows
             .iter()
             .filter(|r| r[0] == zout)
             .step_by(stride)
             .collect();
-        let text = format!(
-            "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = {zout:?}\n[render]\nseed = 3\n",
-            layers_toml(&[(0.0, 1.0, tau, 0.0)], depol)
-        );
-        let tallies = render(&job(&text), zout, &directions(&rows, 1, 2), n);
+        let tallies = render(&job(&job_for(zout)), zout, &directions(&rows, 1, 2), n);
         for (r, tl) in rows.iter().zip(&tallies) {
             let (m, se) = (tl.mean(), tl.standard_error());
             for k in 0..3 {
@@ -102,6 +102,17 @@ fn iprt_a(file: &str, tau: f64, depol: f64, albedo: f64, stride: usize) -> Compa
         }
     }
     cmp
+}
+
+/// An IPRT A case: one Rayleigh layer 0–1 km, outputs at 0 and 1 km.
+fn iprt_a(file: &str, tau: f64, depol: f64, albedo: f64, stride: usize) -> Comparison {
+    let sza: f64 = table(file).header("sza_deg").unwrap().parse().unwrap();
+    iprt_compare(file, stride, |zout| {
+        format!(
+            "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = {zout:?}\n[render]\nseed = 3\n",
+            layers_toml(&[(0.0, 1.0, tau, 0.0)], depol)
+        )
+    })
 }
 
 #[test]
@@ -143,37 +154,12 @@ fn iprt_b(b2: bool, depol: f64, stride: usize) -> Comparison {
     } else {
         "validation/published/iprt_b1.txt"
     };
-    let t = table(file);
-    let n = samples(20_000);
-    let mut cmp = Comparison::default();
-    for zout in [0.0, 1.0, 30.0] {
-        let rows: Vec<&Vec<f64>> = t
-            .rows
-            .iter()
-            .filter(|r| r[0] == zout)
-            .step_by(stride)
-            .collect();
-        let text = format!(
+    iprt_compare(file, stride, |zout| {
+        format!(
             "{}[sun]\nzenith_deg = 60.0\n[observer]\naltitude_km = {zout:?}\n[render]\nseed = 5\n",
             iprt_b_toml(b2, depol)
-        );
-        let tallies = render(&job(&text), zout, &directions(&rows, 1, 2), n);
-        for (r, tl) in rows.iter().zip(&tallies) {
-            let (m, se) = (tl.mean(), tl.standard_error());
-            for k in 0..3 {
-                let what = || {
-                    format!(
-                        "{file} depol {depol} {} zout {zout} θ {} φ {}",
-                        ["I", "Q", "U"][k],
-                        r[1],
-                        r[2]
-                    )
-                };
-                cmp.add(what, m[k], se[k], r[3 + k], r[7 + k]);
-            }
-        }
-    }
-    cmp
+        )
+    })
 }
 
 #[test]
