@@ -7,7 +7,10 @@
 //! at the sensor in the meridian frame of v (shared/CONVENTIONS.md).
 //!
 //! - Free flights: delta tracking against the medium's majorant
-//!   (`tracking`). Absorption is a weight: T ← T·σ_s/σ_t at each collision.
+//!   (`tracking`); in piecewise-constant media, forced collisions on flights
+//!   whose end would contribute nothing (leaving through the top, black
+//!   ground), weight 1 − e^(−τ). Absorption is a weight: T ← T·σ_s/σ_t at
+//!   each collision.
 //! - Scattering vertex: the phase matrix is the σ_s-weighted mixture of
 //!   Rayleigh (with depolarisation) and Henyey–Greenstein aerosol, in the
 //!   scattering-plane frame (e2 = n = k_in × k_out normalised, e1 = n × k).
@@ -35,7 +38,7 @@ use crate::medium::{Medium, PointCoefficients};
 use crate::phase::{PhaseFunction, orthonormal_basis};
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
-use crate::stokes::{Mueller, Stokes, meridian_frame, rotation_angle};
+use crate::stokes::{Mueller, Stokes, StokesRotation, meridian_frame};
 use crate::sun::Sun;
 use crate::tracking::{self, FlightEnd, Ray};
 
@@ -54,6 +57,9 @@ pub struct Settings {
     /// unlimited.
     pub max_scattering_order: u32,
     pub sun_transmittance: SunTransmittance,
+    /// Force a collision on flights that would otherwise leave the
+    /// atmosphere or die on a black ground (piecewise-constant media).
+    pub forced_collisions: bool,
 }
 
 /// Everything a path needs at one wavelength.
@@ -119,8 +125,24 @@ impl Scene {
     }
 
     fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
+        let forced = self.settings.forced_collisions && self.medium.is_piecewise_constant();
+        let mut segments = Vec::with_capacity(2 * self.medium.levels_km().len());
         loop {
-            match tracking::delta_track(&self.medium, &self.geometry, &ray, sampler) {
+            let flight = if forced {
+                let f = tracking::forced_flight(
+                    &self.medium,
+                    &self.geometry,
+                    &ray,
+                    sampler,
+                    self.albedo > 0.0,
+                    &mut segments,
+                );
+                path.throughput = path.throughput * f.weight;
+                f.end
+            } else {
+                tracking::delta_track(&self.medium, &self.geometry, &ray, sampler)
+            };
+            match flight {
                 FlightEnd::Collided(c) => {
                     let x = ray.origin + c.t * ray.dir;
                     let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
@@ -302,9 +324,9 @@ impl Path {
         if !polarized {
             return self.throughput * Stokes::new(m.0[0][0], 0.0, 0.0, 0.0);
         }
-        let (psi, _) = scattering_frame(self.frame_e1, k_in, k_out);
+        let (rotation, _) = scattering_frame(self.frame_e1, k_in, k_out);
         let scattered = *m * source;
-        self.throughput * scattered.rotated(psi)
+        self.throughput * rotation.apply(scattered)
     }
 
     /// Applies a scattering from k_in into k_out with (weighted) matrix `w`.
@@ -313,8 +335,8 @@ impl Path {
             self.throughput = self.throughput * Mueller::depolarizer(w.0[0][0]);
             return;
         }
-        let (psi, e1_in) = scattering_frame(self.frame_e1, k_in, k_out);
-        self.throughput = self.throughput * Mueller::rotation(psi) * *w;
+        let (rotation, e1_in) = scattering_frame(self.frame_e1, k_in, k_out);
+        self.throughput = rotation.right_of(&self.throughput) * *w;
         self.frame_e1 = e1_in;
     }
 
@@ -344,12 +366,12 @@ impl Path {
     }
 }
 
-/// The rotation ψ from the path's frame (axis `e1_out`, light along k_out)
+/// The Stokes rotation from the path's frame (axis `e1_out`, light along k_out)
 /// into the scattering-plane frame of k_out, and the scattering-plane axis
 /// e1 for the incoming light k_in. Scattering plane normal n = k_in × k_out;
 /// e1 = n × k. For forward or backward scattering the plane is undefined and
 /// the path's own frame is kept.
-fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (f64, DVec3) {
+fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation, DVec3) {
     let cross = k_in.cross(k_out);
     let len = cross.length();
     let n = if len > 1e-12 {
@@ -360,7 +382,7 @@ fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (f64, DVec3) {
     let e1_sc_out = n.cross(k_out);
     let e1_in = n.cross(k_in);
     // S(e1_out) = R(ψ) S(e1_sc_out).
-    (rotation_angle(e1_sc_out, e1_out, k_out), e1_in)
+    (StokesRotation::between(e1_sc_out, e1_out, k_out), e1_in)
 }
 
 /// A cosine-weighted direction in the hemisphere around `up`.

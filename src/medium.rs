@@ -49,6 +49,8 @@ pub struct Medium {
     layers: Vec<LayerOptics>,
     shapes: Option<Vec<LayerShape>>,
     sigma_maj: Vec<f64>,
+    /// σ_t of each layer (its mean for `smooth`).
+    sigma_t_layer: Vec<f64>,
 }
 
 /// Gauss–Legendre nodes and weights on [0, 1] (8 points, exact for
@@ -88,6 +90,7 @@ impl Medium {
             .collect();
         Medium {
             levels_km: atm.levels_km.clone(),
+            sigma_t_layer: layers.iter().map(LayerOptics::sigma_t).collect(),
             layers,
             shapes,
             sigma_maj,
@@ -105,9 +108,15 @@ impl Medium {
         self.sigma_maj[i]
     }
 
-    /// True when σ_t equals the majorant everywhere (layered, unscaled).
+    /// True when σ_t equals the majorant in layer `i` (layered, unscaled).
     pub fn is_exact_majorant(&self, i: usize) -> bool {
-        self.shapes.is_none() && self.sigma_maj[i] == self.layers[i].sigma_t()
+        self.shapes.is_none() && self.sigma_maj[i] == self.sigma_t_layer[i]
+    }
+
+    /// True when σ_t is constant in every layer and equal to the majorant,
+    /// so optical depth along a ray is exact and cheap.
+    pub fn is_piecewise_constant(&self) -> bool {
+        (0..self.layers.len()).all(|i| self.is_exact_majorant(i))
     }
 
     /// Coefficients in layer `i` at altitude `z_km`.
@@ -146,7 +155,7 @@ impl Medium {
         t1: f64,
     ) -> f64 {
         if self.shapes.is_none() {
-            return self.layers[i].sigma_t() * (t1 - t0);
+            return self.sigma_t_layer[i] * (t1 - t0);
         }
         let dz = self.levels_km[i + 1] - self.levels_km[i];
         let z0 = geometry.altitude(origin + t0 * dir);

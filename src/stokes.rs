@@ -111,13 +111,7 @@ impl Mueller {
     /// (radians, from the old `e1` towards the old `e2`):
     /// `Q' = cos 2ψ·Q + sin 2ψ·U`, `U' = −sin 2ψ·Q + cos 2ψ·U`.
     pub fn rotation(psi: f64) -> Self {
-        let (s, c) = (2.0 * psi).sin_cos();
-        Mueller([
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, c, s, 0.0],
-            [0.0, -s, c, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-        ])
+        StokesRotation::from_angle(psi).mueller()
     }
 
     /// Ideal depolariser: only the element `[0][0] = a` is non-zero.
@@ -179,8 +173,11 @@ impl Mul<Stokes> for Mueller {
 impl Mul<f64> for Mueller {
     type Output = Mueller;
 
-    fn mul(self, a: f64) -> Mueller {
-        Mueller(self.0.map(|row| row.map(|x| x * a)))
+    fn mul(mut self, a: f64) -> Mueller {
+        for x in self.0.iter_mut().flatten() {
+            *x *= a;
+        }
+        self
     }
 }
 
@@ -290,6 +287,76 @@ pub fn rotation_angle(e1_from: DVec3, e1_to: DVec3, k: DVec3) -> f64 {
     sin_psi.atan2(cos_psi)
 }
 
+/// A Stokes rotation by ψ held as (cos 2ψ, sin 2ψ), the only two numbers
+/// the rotation matrix needs: built from two frames without trigonometric
+/// functions (the hot path of the tracer does one per scattering).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StokesRotation {
+    pub cos_2psi: f64,
+    pub sin_2psi: f64,
+}
+
+impl StokesRotation {
+    /// The rotation by angle ψ.
+    pub fn from_angle(psi: f64) -> Self {
+        let (sin_2psi, cos_2psi) = (2.0 * psi).sin_cos();
+        StokesRotation { cos_2psi, sin_2psi }
+    }
+
+    /// The rotation of [`rotation_angle`]`(e1_from, e1_to, k)`: with
+    /// c = cos ψ and s = sin ψ from the frames, cos 2ψ = (c² − s²)/(c² + s²)
+    /// and sin 2ψ = 2cs/(c² + s²).
+    pub fn between(e1_from: DVec3, e1_to: DVec3, k: DVec3) -> Self {
+        let s = k.dot(e1_from.cross(e1_to));
+        let c = e1_from.dot(e1_to);
+        let r2 = c * c + s * s;
+        if r2 == 0.0 {
+            return StokesRotation {
+                cos_2psi: 1.0,
+                sin_2psi: 0.0,
+            };
+        }
+        StokesRotation {
+            cos_2psi: (c * c - s * s) / r2,
+            sin_2psi: 2.0 * c * s / r2,
+        }
+    }
+
+    /// The rotation matrix (the same as [`Mueller::rotation`]).
+    pub fn mueller(&self) -> Mueller {
+        let (c, s) = (self.cos_2psi, self.sin_2psi);
+        Mueller([
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, c, s, 0.0],
+            [0.0, -s, c, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ])
+    }
+
+    /// `R · s` for a Stokes vector.
+    pub fn apply(&self, s: Stokes) -> Stokes {
+        let (c, n) = (self.cos_2psi, self.sin_2psi);
+        Stokes([
+            s.0[0],
+            c * s.0[1] + n * s.0[2],
+            -n * s.0[1] + c * s.0[2],
+            s.0[3],
+        ])
+    }
+
+    /// `m · R` without the full product (R mixes columns 1 and 2 only).
+    pub fn right_of(&self, m: &Mueller) -> Mueller {
+        let (c, n) = (self.cos_2psi, self.sin_2psi);
+        let mut out = *m;
+        for row in out.0.iter_mut() {
+            let (a, b) = (row[1], row[2]);
+            row[1] = c * a - n * b;
+            row[2] = n * a + c * b;
+        }
+        out
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -298,6 +365,44 @@ mod tests {
     use std::f64::consts::{FRAC_PI_2, PI};
 
     const TOL: f64 = 1e-12;
+
+    #[test]
+    fn trig_free_rotation_equals_the_angle_form() {
+        let mut rng = Pcg64Mcg::seed_from_u64(77);
+        for _ in 0..500 {
+            let k = DVec3::new(
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+                rng.random::<f64>() - 0.5,
+            )
+            .normalize();
+            let (a, _) = crate::phase::orthonormal_basis(k);
+            let b = (a * (rng.random::<f64>() - 0.5) + k.cross(a) * (rng.random::<f64>() - 0.5))
+                .normalize();
+            let fast = StokesRotation::between(a, b, k);
+            let slow = Mueller::rotation(rotation_angle(a, b, k));
+            let m = fast.mueller();
+            for r in 0..4 {
+                for c in 0..4 {
+                    assert!((m.0[r][c] - slow.0[r][c]).abs() < 1e-12);
+                }
+            }
+            let t = Mueller([
+                [1.0, 2.0, 3.0, 4.0],
+                [5.0, 6.0, 7.0, 8.0],
+                [9.0, 1.0, 2.0, 3.0],
+                [4.0, 5.0, 6.0, 7.0],
+            ]);
+            let (x, y) = (fast.right_of(&t), t * m);
+            let sv = Stokes([1.0, 0.3, -0.2, 0.1]);
+            assert!((fast.apply(sv).0[2] - (m * sv).0[2]).abs() < 1e-12);
+            for r in 0..4 {
+                for c in 0..4 {
+                    assert!((x.0[r][c] - y.0[r][c]).abs() < 1e-12);
+                }
+            }
+        }
+    }
 
     fn assert_stokes_close(a: Stokes, b: Stokes, tol: f64) {
         for n in 0..4 {

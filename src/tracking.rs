@@ -58,6 +58,20 @@ pub fn walk(
     geometry: &Geometry,
     levels_km: &[f64],
     ray: &Ray,
+    f: impl FnMut(Segment) -> ControlFlow<()>,
+) -> WalkEnd {
+    match *geometry {
+        Geometry::Spherical { radius_km } => walk_spherical(radius_km, levels_km, ray, f),
+        Geometry::PlaneParallel => walk_stepwise(geometry, levels_km, ray, f),
+    }
+}
+
+/// The general walk: one `next_boundary` query per segment from the
+/// current point.
+fn walk_stepwise(
+    geometry: &Geometry,
+    levels_km: &[f64],
+    ray: &Ray,
     mut f: impl FnMut(Segment) -> ControlFlow<()>,
 ) -> WalkEnd {
     let top = levels_km.len() - 2;
@@ -80,6 +94,68 @@ pub fn walk(
             return WalkEnd::Stopped;
         }
         if c.boundary == layer {
+            if layer == 0 {
+                return WalkEnd::Ground { t: t1 };
+            }
+            layer -= 1;
+        } else {
+            if layer == top {
+                return WalkEnd::Top { t: t1 };
+            }
+            layer += 1;
+        }
+        t = t1;
+    }
+}
+
+/// The walk through concentric shells, with every crossing computed from
+/// the ray's own invariants rather than from the moving point: b = o·d and
+/// the distance h of the line from the centre (|o − b·d|, no cancellation).
+/// Before the tangent point (t < −b) the ray descends and meets the shell of
+/// radius r at t = (|o|² − r²)/(−b + √(r² − h²)) if h < r; after it, it
+/// ascends and leaves the shell of radius r at t = −b + √(r² − h²) (or, for
+/// b > 0, the equal (r² − |o|²)/(b + √(r² − h²))). Each form adds terms of
+/// the same sign, so near-tangent rays keep their digits; the radicand is
+/// factored as (r − h)(r + h). One square root per layer crossed.
+fn walk_spherical(
+    radius_km: f64,
+    levels_km: &[f64],
+    ray: &Ray,
+    mut f: impl FnMut(Segment) -> ControlFlow<()>,
+) -> WalkEnd {
+    let top = levels_km.len() - 2;
+    let o = ray.origin;
+    let b = o.dot(ray.dir);
+    let h = (o - b * ray.dir).length();
+    let o_len = o.length();
+    let radicand = |r: f64| (r - h) * (r + h);
+    let mut layer = ray.layer;
+    let mut descending = b < 0.0;
+    let mut t = 0.0;
+    loop {
+        let (t1, down) = if descending {
+            let r = radius_km + levels_km[layer];
+            if h < r {
+                let q = -b + radicand(r).sqrt();
+                (((o_len - r) * (o_len + r) / q).max(t), true)
+            } else {
+                descending = false;
+                continue;
+            }
+        } else {
+            let r = radius_km + levels_km[layer + 1];
+            let root = radicand(r).max(0.0).sqrt();
+            let t1 = if b > 0.0 {
+                (r - o_len) * (r + o_len) / (b + root)
+            } else {
+                -b + root
+            };
+            (t1.max(t), false)
+        };
+        if f(Segment { t0: t, t1, layer }).is_break() {
+            return WalkEnd::Stopped;
+        }
+        if down {
             if layer == 0 {
                 return WalkEnd::Ground { t: t1 };
             }
@@ -182,6 +258,100 @@ pub fn delta_track(
     })
 }
 
+/// A free flight with forced collisions: where the flight ends and the
+/// weight the path carries for it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForcedFlight {
+    pub end: FlightEnd,
+    pub weight: f64,
+}
+
+/// Collision sampling with forced collisions in a piecewise-constant medium
+/// (Cashwell & Everett 1959; Mayer 2009 uses it in MYSTIC): when the end of
+/// the ray contributes nothing (it leaves through the top, or hits a black
+/// ground: `ground_counts = false`), the collision distance is drawn from
+/// the exponential truncated to the ray's optical depth τ and the path
+/// carries the weight 1 − e^(−τ), so every path scatters. Otherwise the
+/// flight is analog (the same distribution as delta tracking). The layer
+/// segments of the ray are walked once into `segments` (a reusable buffer).
+pub fn forced_flight(
+    medium: &Medium,
+    geometry: &Geometry,
+    ray: &Ray,
+    sampler: &mut Sampler,
+    ground_counts: bool,
+    segments: &mut Vec<(Segment, f64)>,
+) -> ForcedFlight {
+    segments.clear();
+    let mut tau_exit = 0.0;
+    let end = walk(geometry, medium.levels_km(), ray, |seg| {
+        let tau = if seg.t1.is_infinite() {
+            if medium.sigma_maj(seg.layer) > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            }
+        } else {
+            medium.sigma_maj(seg.layer) * (seg.t1 - seg.t0)
+        };
+        tau_exit += tau;
+        segments.push((seg, tau));
+        ControlFlow::Continue(())
+    });
+    let u = sampler.next_f64();
+    let (tau_target, weight) = match end {
+        WalkEnd::Ground { t } if ground_counts => {
+            let tau = -(1.0 - u).ln();
+            if tau >= tau_exit {
+                return ForcedFlight {
+                    end: FlightEnd::Ground { t },
+                    weight: 1.0,
+                };
+            }
+            (tau, 1.0)
+        }
+        _ => {
+            if tau_exit <= 0.0 {
+                let end = match end {
+                    WalkEnd::Ground { t } => FlightEnd::Ground { t },
+                    WalkEnd::Top { t } => FlightEnd::Top { t },
+                    _ => FlightEnd::Endless,
+                };
+                return ForcedFlight { end, weight: 1.0 };
+            }
+            // P(collide before the end) = 1 − e^(−τ), computed without cancellation.
+            let p = -(-tau_exit).exp_m1();
+            (-(-u * p).ln_1p(), p)
+        }
+    };
+    let mut acc = 0.0;
+    for &(seg, tau) in segments.iter() {
+        if acc + tau >= tau_target {
+            let sigma = medium.sigma_maj(seg.layer);
+            let t = (seg.t0 + (tau_target - acc) / sigma).min(seg.t1);
+            return ForcedFlight {
+                end: FlightEnd::Collided(Collision {
+                    t,
+                    layer: seg.layer,
+                    sigma_maj: sigma,
+                }),
+                weight,
+            };
+        }
+        acc += tau;
+    }
+    // Rounding left the target just beyond the last segment: collide at its end.
+    let (seg, _) = segments[segments.len() - 1];
+    ForcedFlight {
+        end: FlightEnd::Collided(Collision {
+            t: seg.t1,
+            layer: seg.layer,
+            sigma_maj: medium.sigma_maj(seg.layer),
+        }),
+        weight,
+    }
+}
+
 /// Ratio-tracking estimate of the transmittance from the ray's origin to
 /// where it leaves through the top (0 if it hits the ground).
 pub fn ratio_tracking_transmittance(
@@ -280,6 +450,63 @@ mod tests {
     }
 
     #[test]
+    fn spherical_walk_agrees_with_the_stepwise_walk() {
+        // The same segments (to 1e-9 km) for rays from every layer in many
+        // directions, limb rays included.
+        let levels: Vec<f64> = (0..=40).map(|i| (i as f64 * 2.5f64).min(100.0)).collect();
+        let g = Geometry::Spherical { radius_km: R };
+        let mut s = Sampler::new(&[99]);
+        for k in 0..2000 {
+            let z = if k % 5 == 0 {
+                levels[k % 40]
+            } else {
+                100.0 * s.next_f64()
+            };
+            let cos_t = if k % 7 == 0 {
+                -0.05 * s.next_f64()
+            } else {
+                2.0 * s.next_f64() - 1.0
+            };
+            let dir = DVec3::new((1.0 - cos_t * cos_t).sqrt(), 0.0, cos_t);
+            let Some(layer) = layer_at(&levels, z, cos_t) else {
+                continue;
+            };
+            let ray = Ray {
+                origin: DVec3::new(0.0, 0.0, R + z),
+                dir,
+                layer,
+            };
+            let mut a = Vec::new();
+            let end_a = walk_spherical(R, &levels, &ray, |seg| {
+                a.push(seg);
+                ControlFlow::Continue(())
+            });
+            let mut b = Vec::new();
+            let end_b = walk_stepwise(&g, &levels, &ray, |seg| {
+                b.push(seg);
+                ControlFlow::Continue(())
+            });
+            let (ta, tb) = match (end_a, end_b) {
+                (WalkEnd::Top { t: x }, WalkEnd::Top { t: y })
+                | (WalkEnd::Ground { t: x }, WalkEnd::Ground { t: y }) => (x, y),
+                other => panic!("z {z} cos {cos_t}: ends differ {other:?}"),
+            };
+            assert!(
+                (ta - tb).abs() < 1e-9 * ta.max(1.0),
+                "z {z} cos {cos_t}: {ta} vs {tb}"
+            );
+            // Limb rays may differ by vanishing slivers at a tangent shell.
+            let long_a: Vec<_> = a.iter().filter(|g| g.t1 - g.t0 > 1e-6).collect();
+            let long_b: Vec<_> = b.iter().filter(|g| g.t1 - g.t0 > 1e-6).collect();
+            assert_eq!(long_a.len(), long_b.len(), "z {z} cos {cos_t}");
+            for (x, y) in long_a.iter().zip(&long_b) {
+                assert_eq!(x.layer, y.layer);
+                assert!((x.t1 - y.t1).abs() < 1e-9 * x.t1.max(1.0));
+            }
+        }
+    }
+
+    #[test]
     fn layer_lookup_on_and_between_boundaries() {
         let levels = [0.0, 1.0, 2.0, 5.0];
         assert_eq!(layer_at(&levels, 0.0, 1.0), Some(0));
@@ -362,6 +589,65 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn forced_flights_weight_the_truncated_distribution_exactly() {
+        // E[weight · 1(t > s)] must equal e^(−τ(s)) − e^(−τ_exit) for a ray
+        // that leaves through the top, and the weight is 1 − e^(−τ_exit).
+        let g = Geometry::Spherical { radius_km: R };
+        let m = medium(MediumModel::Layered, 1.0);
+        let ray = slant_ray(70.0, 0.2, m.levels_km());
+        let (tau_exit, _) = optical_depth(&m, &g, &ray);
+        let n = 40_000u64;
+        let mut buf = Vec::new();
+        let flights: Vec<ForcedFlight> = (0..n)
+            .map(|k| forced_flight(&m, &g, &ray, &mut Sampler::new(&[14, k]), false, &mut buf))
+            .collect();
+        for f in &flights {
+            assert!((f.weight - (1.0 - (-tau_exit).exp())).abs() < 1e-14);
+            assert!(matches!(f.end, FlightEnd::Collided(_)));
+        }
+        for dist in [0.5, 2.0, 10.0] {
+            let mut tau = 0.0;
+            walk(&g, m.levels_km(), &ray, |seg| {
+                let t1 = seg.t1.min(dist);
+                if t1 > seg.t0 {
+                    tau += m.segment_optical_depth(&g, ray.origin, ray.dir, seg.layer, seg.t0, t1);
+                }
+                if seg.t1 >= dist {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            });
+            let exact = (-tau).exp() - (-tau_exit).exp();
+            let (mean, se, _) = mean_se(flights.iter().map(|f| match f.end {
+                FlightEnd::Collided(c) if c.t > dist => f.weight,
+                _ => 0.0,
+            }));
+            assert!(
+                (mean - exact).abs() < 4.0 * se,
+                "{dist} km: {mean} ± {se} vs {exact}"
+            );
+        }
+        // Looking down at a reflecting ground the flight is analog.
+        let down = Ray {
+            dir: -ray.dir,
+            layer: layer_at(m.levels_km(), 0.2, -1.0).unwrap(),
+            ..ray
+        };
+        let (tau_g, _) = optical_depth(&m, &g, &down);
+        let (mean, se, _) = mean_se((0..n).map(|k| {
+            let f = forced_flight(&m, &g, &down, &mut Sampler::new(&[15, k]), true, &mut buf);
+            assert_eq!(f.weight, 1.0);
+            if matches!(f.end, FlightEnd::Ground { .. }) {
+                1.0
+            } else {
+                0.0
+            }
+        }));
+        assert!((mean - (-tau_g).exp()).abs() < 4.0 * se);
     }
 
     #[test]

@@ -73,7 +73,7 @@ fn natraj_2009_subset() {
 /// observer at each output level; every `stride`-th direction is rendered.
 fn iprt_compare(file: &str, stride: usize, job_for: impl Fn(f64) -> String) -> Comparison {
     let t = table(file);
-    let n = samples(30_000);
+    let n = samples(10_000);
     let mut levels: Vec<f64> = t.column(0);
     levels.sort_by(f64::total_cmp);
     levels.dedup();
@@ -184,7 +184,7 @@ fn iprt_b2_rayleigh_with_ozone_matches_depolarisation_0_03() {
 #[test]
 fn korkin_single_scattering_of_b2() {
     let t = table("validation/published/korkin_b2_single_scatter.txt");
-    let n = samples(20_000);
+    let n = samples(10_000);
     let mut cmp = Comparison::default();
     let mut szas: Vec<f64> = t.column(0);
     szas.dedup();

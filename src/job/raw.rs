@@ -147,6 +147,7 @@ pub(super) struct RawRender {
     pub(super) medium: Option<RawMedium>,
     pub(super) sun_transmittance: Option<RawSunTransmittance>,
     pub(super) majorant_scale: Option<f64>,
+    pub(super) forced_collisions: Option<bool>,
 }
 
 #[derive(Debug, Default, Deserialize)]

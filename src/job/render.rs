@@ -177,6 +177,7 @@ pub(super) fn resolve(
                 RawSunTransmittance::Analytic => SunTransmittance::Analytic,
                 RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
             },
+            forced_collisions: render.forced_collisions.unwrap_or(true),
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {
             RawMedium::Layered => MediumModel::Layered,
