@@ -96,23 +96,35 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     eprintln!("{msg}");
                 }
             };
-            let result = pool.install(|| render::render_job(&job, &log));
-            let radiance = output::radiance_csv(&result.radiance);
-            if stdout {
-                let mut out = std::io::stdout().lock();
-                out.write_all(radiance.as_bytes())
-                    .context("writing to stdout")?;
-                out.flush().context("writing to stdout")?;
-            } else {
-                let dir = out.unwrap_or_else(|| job.render.output_directory.clone());
-                output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
-                if !result.fluxes.is_empty() {
-                    output::write_atomic(
-                        &dir.join("fluxes.csv"),
-                        output::flux_csv(&result.fluxes).as_bytes(),
-                    )?;
+            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
+            for task in &job.tasks {
+                let result = pool.install(|| render::render_task(&job, task, &log));
+                let radiance = output::radiance_csv(&result.radiance);
+                if stdout {
+                    let mut out = std::io::stdout().lock();
+                    if job.tasks.len() > 1 {
+                        writeln!(out, "# task {}", task.name).context("writing to stdout")?;
+                    }
+                    out.write_all(radiance.as_bytes())
+                        .context("writing to stdout")?;
+                    out.flush().context("writing to stdout")?;
+                } else {
+                    // One task: the files go in the output directory itself;
+                    // a grid: one sub-directory per task.
+                    let dir = if job.tasks.len() == 1 {
+                        base.clone()
+                    } else {
+                        base.join(&task.name)
+                    };
+                    output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
+                    if !result.fluxes.is_empty() {
+                        output::write_atomic(
+                            &dir.join("fluxes.csv"),
+                            output::flux_csv(&result.fluxes).as_bytes(),
+                        )?;
+                    }
+                    log(&format!("wrote {}", dir.display()));
                 }
-                log(&format!("wrote {}", dir.display()));
             }
         }
         Command::Atmosphere { job, format } => {

@@ -193,21 +193,28 @@ pub struct RenderResult {
     pub fluxes: Vec<crate::output::FluxRow>,
 }
 
-/// Renders every wavelength of a job (in the current rayon pool), calling
-/// `log` with a line per wavelength.
-pub fn render_job(job: &crate::job::Job, log: &dyn Fn(&str)) -> RenderResult {
+/// Renders every wavelength of one task of a job (in the current rayon
+/// pool), calling `log` with a line per wavelength.
+pub fn render_task(
+    job: &crate::job::Job,
+    task: &crate::job::Task,
+    log: &dyn Fn(&str),
+) -> RenderResult {
     let spec = &job.render;
+    let altitude_km = task.observer_altitude_km;
     let mut result = RenderResult::default();
     for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
         let start = std::time::Instant::now();
-        let scene = job.scene(w);
+        let scene = job.scene_for(&task.atmosphere, w);
+        // Streams per task: the task index joins the wavelength key.
+        let key = ((task.index as u64) << 32) | w as u64;
         let tallies = render_directions(
             &scene,
-            job.observer_altitude_km,
+            altitude_km,
             &spec.directions,
             spec.samples,
             spec.seed,
-            w as u64,
+            key,
         );
         for (direction, tally) in spec.directions.iter().zip(tallies) {
             result.radiance.push(crate::output::RadianceRow {
@@ -221,20 +228,15 @@ pub fn render_job(job: &crate::job::Job, log: &dyn Fn(&str)) -> RenderResult {
             result.fluxes.push(crate::output::FluxRow {
                 wavelength_nm,
                 albedo: spec.albedo,
-                altitude_km: job.observer_altitude_km,
-                fluxes: render_fluxes(
-                    &scene,
-                    job.observer_altitude_km,
-                    spec.samples,
-                    spec.seed,
-                    w as u64,
-                ),
+                altitude_km,
+                fluxes: render_fluxes(&scene, altitude_km, spec.samples, spec.seed, key),
             });
         }
         let paths = spec.samples * (spec.directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
         let secs = start.elapsed().as_secs_f64();
         log(&format!(
-            "{wavelength_nm} nm: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+            "{}: {wavelength_nm} nm: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+            task.name,
             paths as f64 / secs,
             rayon::current_num_threads()
         ));

@@ -13,11 +13,13 @@ use crate::ozone::OzoneModel;
 use crate::profile::GasProfile;
 use crate::rayleigh::RayleighModel;
 
+/// The profile spec (without visibility) and the requested visibilities
+/// (`[None]` when not given).
 pub(super) fn resolve_profile_spec(
     ctx: &Ctx,
     atm: &RawAtmosphere,
     dir: &Path,
-) -> Result<(ProfileSpec, String)> {
+) -> Result<(ProfileSpec, String, Vec<Option<f64>>)> {
     let (profile, name) = match (&atm.profile, &atm.profile_file) {
         (Some(_), Some(_)) => {
             return Err(ctx.invalid(
@@ -105,8 +107,8 @@ pub(super) fn resolve_profile_spec(
             )
         })?)
     };
-    let visibility_km = match atm.visibility_km {
-        None => None,
+    let visibilities = match &atm.visibility_km {
+        None => vec![None],
         Some(_) if aerosol.is_none() => {
             return Err(ctx.invalid(
                 "atmosphere.visibility_km",
@@ -115,14 +117,31 @@ pub(super) fn resolve_profile_spec(
                 "leave it out, or name an aerosol mixture",
             ));
         }
-        Some(v) => Some(ctx.range(
-            "atmosphere.visibility_km",
-            v,
-            0.0,
-            f64::MAX,
-            true,
-            "a positive number of km",
-        )?),
+        Some(list) => {
+            let values = list.values();
+            if values.is_empty() {
+                return Err(ctx.invalid(
+                    "atmosphere.visibility_km",
+                    "[]",
+                    "empty list",
+                    "a number or a non-empty list of km",
+                ));
+            }
+            values
+                .into_iter()
+                .map(|v| {
+                    ctx.range(
+                        "atmosphere.visibility_km",
+                        v,
+                        0.0,
+                        f64::MAX,
+                        true,
+                        "a positive number of km",
+                    )
+                    .map(Some)
+                })
+                .collect::<Result<Vec<_>>>()?
+        }
     };
     Ok((
         ProfileSpec {
@@ -131,9 +150,10 @@ pub(super) fn resolve_profile_spec(
             ozone,
             ozone_column_du,
             aerosol,
-            visibility_km,
+            visibility_km: None,
         },
         name,
+        visibilities,
     ))
 }
 

@@ -70,8 +70,35 @@ pub struct Job {
     pub observer_altitude_km: f64,
     pub wavelengths_nm: Vec<f64>,
     pub source: AtmosphereSource,
+    /// The atmosphere of the first task.
     pub atmosphere: Atmosphere,
+    /// The job's grid: visibility × observer altitude, in that order.
+    pub tasks: Vec<Task>,
     pub render: RenderSpec,
+}
+
+/// One point of the job's grid.
+#[derive(Debug, Clone)]
+pub struct Task {
+    /// Position in the job's task list (from 0).
+    pub index: usize,
+    /// Stable readable name, e.g. `vis059.4_alt01000m`.
+    pub name: String,
+    /// The requested visibility, if any.
+    pub visibility_km: Option<f64>,
+    pub observer_altitude_km: f64,
+    pub atmosphere: Atmosphere,
+}
+
+/// `vis059.4_alt01000m`: the requested visibility, else the atmosphere's
+/// own ground visibility (`novis` without aerosol), and the observer
+/// altitude in metres.
+fn task_name(visibility_km: Option<f64>, atmosphere: &Atmosphere, altitude_km: f64) -> String {
+    let vis = match visibility_km.or(atmosphere.visibility.map(|v| v.ground_km)) {
+        Some(v) => format!("vis{v:05.1}"),
+        None => "novis".to_string(),
+    };
+    format!("{vis}_alt{:05.0}m", altitude_km * 1000.0)
 }
 
 /// Validation context: the file name for every error.
@@ -128,12 +155,17 @@ impl Job {
         }
     }
 
-    /// The scene at wavelength index `w`.
+    /// The scene of the first task at wavelength index `w`.
     pub fn scene(&self, w: usize) -> Scene {
+        self.scene_for(&self.atmosphere, w)
+    }
+
+    /// The scene of an atmosphere (of one of the tasks) at wavelength `w`.
+    pub fn scene_for(&self, atmosphere: &Atmosphere, w: usize) -> Scene {
         Scene {
             geometry: self.geometry(),
             medium: Medium::new(
-                &self.atmosphere,
+                atmosphere,
                 w,
                 self.render.medium,
                 self.render.majorant_scale,
@@ -207,7 +239,7 @@ impl Job {
             }
         };
 
-        let (source, atmosphere, top_km) = if let Some(layers) = &atm.layers {
+        let (source, atmospheres, top_km) = if let Some(layers) = &atm.layers {
             let given: Vec<&str> = [
                 ("profile", atm.profile.is_some()),
                 ("profile_file", atm.profile_file.is_some()),
@@ -240,9 +272,9 @@ impl Job {
                     &format!("{top} (or leave it out)"),
                 ));
             }
-            (AtmosphereSource::Layers, atmosphere, top)
+            (AtmosphereSource::Layers, vec![(None, atmosphere)], top)
         } else {
-            let (spec, name) = resolve_profile_spec(&ctx, &atm, dir)?;
+            let (mut spec, name, visibilities) = resolve_profile_spec(&ctx, &atm, dir)?;
             let profile_top = spec.profile.top_km();
             let top_km = ctx.range(
                 "planet.top_km",
@@ -252,34 +284,65 @@ impl Job {
                 true,
                 &format!("above the ground, at most the profile's top, {profile_top} km"),
             )?;
-            let atmosphere = Atmosphere::from_profile(&spec, top_km, &wavelengths_nm)
-                .map_err(|e| build_error(&ctx, &atm, e))?;
+            let mut atmospheres = Vec::with_capacity(visibilities.len());
+            for v in visibilities {
+                spec.visibility_km = v;
+                let atmosphere = Atmosphere::from_profile(&spec, top_km, &wavelengths_nm)
+                    .map_err(|e| build_error(&ctx, &atm, e))?;
+                atmospheres.push((v, atmosphere));
+            }
             let source = AtmosphereSource::Profile {
                 profile: name,
                 ozone: spec.ozone,
                 rayleigh: spec.rayleigh,
                 aerosol: spec.aerosol.as_ref().map(|a| a.mixture.name.clone()),
             };
-            (source, atmosphere, top_km)
+            (source, atmospheres, top_km)
         };
 
-        let observer_altitude_km = raw.observer.and_then(|o| o.altitude_km).unwrap_or(0.0);
-        let ground = atmosphere.levels_km[0];
-        if !observer_altitude_km.is_finite()
-            || observer_altitude_km < ground
-            || observer_altitude_km > top_km
-        {
+        let altitudes = match raw.observer.and_then(|o| o.altitude_km) {
+            None => vec![0.0],
+            Some(list) => list.values(),
+        };
+        if altitudes.is_empty() {
             return Err(ctx.invalid(
                 "observer.altitude_km",
-                observer_altitude_km,
-                if observer_altitude_km > top_km {
-                    "the observer is above the top of the atmosphere"
-                } else {
-                    "out of range"
-                },
-                &format!("from the ground ({ground} km) to planet.top_km ({top_km} km)"),
+                "[]",
+                "empty list",
+                "a number or a non-empty list of km",
             ));
         }
+        let ground = atmospheres[0].1.levels_km[0];
+        for &h in &altitudes {
+            if !h.is_finite() || h < ground || h > top_km {
+                return Err(ctx.invalid(
+                    "observer.altitude_km",
+                    h,
+                    if h > top_km {
+                        "the observer is above the top of the atmosphere"
+                    } else if h.is_finite() {
+                        "out of range"
+                    } else {
+                        "not a finite number"
+                    },
+                    &format!("from the ground ({ground} km) to planet.top_km ({top_km} km)"),
+                ));
+            }
+        }
+        let mut tasks = Vec::with_capacity(atmospheres.len() * altitudes.len());
+        for (v, atmosphere) in &atmospheres {
+            for &h in &altitudes {
+                tasks.push(Task {
+                    index: tasks.len(),
+                    name: task_name(*v, atmosphere, h),
+                    visibility_km: *v,
+                    observer_altitude_km: h,
+                    atmosphere: atmosphere.clone(),
+                });
+            }
+        }
+        let atmosphere = tasks[0].atmosphere.clone();
+        let observer_altitude_km = tasks[0].observer_altitude_km;
 
         let render = render::resolve(
             &ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output,
@@ -296,6 +359,7 @@ impl Job {
             wavelengths_nm,
             source,
             atmosphere,
+            tasks,
             render,
         })
     }

@@ -38,7 +38,7 @@ pub(super) struct RawAtmosphere {
     pub(super) ozone_column_du: Option<f64>,
     pub(super) rayleigh: Option<RawRayleigh>,
     pub(super) aerosol: Option<String>,
-    pub(super) visibility_km: Option<f64>,
+    pub(super) visibility_km: Option<OneOrMany>,
     pub(super) layers: Option<Vec<RawLayer>>,
 }
 
@@ -89,7 +89,7 @@ pub(super) struct RawSpectrum {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawObserver {
-    pub(super) altitude_km: Option<f64>,
+    pub(super) altitude_km: Option<OneOrMany>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -154,4 +154,21 @@ pub(super) struct RawRender {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawOutput {
     pub(super) directory: Option<PathBuf>,
+}
+
+/// A number or a list of numbers (a grid axis).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged, expecting = "a number or a list of numbers")]
+pub(super) enum OneOrMany {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+impl OneOrMany {
+    pub(super) fn values(&self) -> Vec<f64> {
+        match self {
+            OneOrMany::One(v) => vec![*v],
+            OneOrMany::Many(v) => v.clone(),
+        }
+    }
 }
