@@ -20,6 +20,7 @@ pub mod error;
 pub mod integrator;
 pub mod job;
 pub mod medium;
+pub mod openexr;
 pub mod output;
 pub mod ozone;
 pub mod phase;
@@ -34,6 +35,7 @@ pub mod stats;
 pub mod stokes;
 pub mod sun;
 pub mod tracking;
+pub mod transmittance;
 pub mod visibility;
 
 pub use error::{Error, Result};

@@ -9,7 +9,8 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use atmosim::job::Job;
-use atmosim::{output, render, report};
+use atmosim::medium::Medium;
+use atmosim::{output, render, report, transmittance};
 
 #[derive(Parser)]
 #[command(
@@ -32,6 +33,22 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = FormatArg::Table)]
         format: FormatArg,
+    },
+    /// Transmittance tables T(altitude, ground distance) from the observer,
+    /// per task (visibility × observer altitude), all wavelengths at once:
+    /// transmittance.csv and transmittance.exr.
+    Transmittance {
+        /// Job file (TOML).
+        job: PathBuf,
+        /// Output directory (default: the job's `[output] directory`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress lines on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Render a job: for a `directions` sensor, a CSV of Stokes radiances
     /// per wavelength and direction (radiance.csv) and the fluxes at the
@@ -127,6 +144,56 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             }
         }
+        Command::Transmittance {
+            job,
+            out,
+            threads,
+            quiet,
+        } => {
+            let job = Job::from_file(&job)?;
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.unwrap_or(0))
+                .build()
+                .context("starting worker threads")?;
+            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
+            for task in &job.tasks {
+                let start = std::time::Instant::now();
+                let table = pool.install(|| transmittance_table(&job, task));
+                let spec = &job.transmittance;
+                let dir = if job.tasks.len() == 1 {
+                    base.clone()
+                } else {
+                    base.join(&task.name)
+                };
+                let csv = output::transmittance_csv(
+                    &job.wavelengths_nm,
+                    &spec.grid,
+                    &table,
+                    spec.export_sqrt,
+                );
+                output::write_atomic(&dir.join("transmittance.csv"), csv.as_bytes())?;
+                output::write_transmittance_exr(
+                    &dir.join("transmittance.exr"),
+                    &job.wavelengths_nm,
+                    &spec.grid,
+                    &table,
+                    spec.export_sqrt,
+                    &transmittance_attributes(&job, task),
+                )?;
+                if !quiet {
+                    let secs = start.elapsed().as_secs_f64();
+                    eprintln!(
+                        "{}: {} points × {} wavelengths in {secs:.2} s ({:.0} points/s, {}) → {}",
+                        task.name,
+                        spec.grid.len(),
+                        job.wavelengths_nm.len(),
+                        spec.grid.len() as f64 / secs,
+                        spec.estimator.name(),
+                        dir.display()
+                    );
+                }
+            }
+        }
         Command::Atmosphere { job, format } => {
             let job = load_job(job.as_ref())?;
             let format = match format {
@@ -141,6 +208,57 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+fn transmittance_table(job: &Job, task: &atmosim::job::Task) -> transmittance::Table {
+    let media: Vec<Medium> = (0..job.wavelengths_nm.len())
+        .map(|w| {
+            Medium::new(
+                &task.atmosphere,
+                w,
+                job.render.medium,
+                job.render.majorant_scale,
+            )
+        })
+        .collect();
+    transmittance::compute(
+        &job.transmittance,
+        &media,
+        &job.geometry(),
+        task.observer_altitude_km,
+        job.render.seed,
+        task.index as u64,
+    )
+}
+
+/// Metadata of a transmittance EXR: everything needed to interpret it.
+fn transmittance_attributes(job: &Job, task: &atmosim::job::Task) -> Vec<(String, String)> {
+    let spec = &job.transmittance;
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    vec![
+        ("atmosim_version".into(), env!("CARGO_PKG_VERSION").into()),
+        ("job_hash".into(), job.hash.clone()),
+        ("task".into(), task.name.clone()),
+        ("quantity".into(), "transmittance from the observer along the straight line of sight, no refraction".into()),
+        ("units".into(), "1 (T, T_se, sqrtT); blocked: 1 if the line of sight passes below the ground".into()),
+        ("layout".into(), "x (columns) = ground distance nodes, y (rows) = altitude nodes, row 0 = lowest altitude".into()),
+        ("grid".into(), spec.grid.definition.clone()),
+        ("altitudes_km".into(), list(&spec.grid.altitudes_km)),
+        ("distances_km".into(), list(&spec.grid.distances_km)),
+        ("wavelengths_nm".into(), list(&job.wavelengths_nm)),
+        ("observer_altitude_km".into(), format!("{}", task.observer_altitude_km)),
+        ("visibility_km".into(), task.atmosphere.visibility.map_or("none".into(), |v| format!("{}", v.ground_km))),
+        ("planet_radius_km".into(), format!("{}", job.planet.radius_km)),
+        ("top_km".into(), format!("{}", job.planet.top_km)),
+        ("estimator".into(), spec.estimator.name().into()),
+        ("samples".into(), format!("{}", spec.samples)),
+        ("seed".into(), format!("{}", job.render.seed)),
+    ]
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

@@ -97,6 +97,16 @@ impl Medium {
         }
     }
 
+    /// The same medium tracked against other majorants (each at least this
+    /// medium's own): for sharing tentative collisions between wavelengths.
+    pub fn with_majorants(&self, sigma_maj: Vec<f64>) -> Medium {
+        debug_assert!(sigma_maj.iter().zip(&self.sigma_maj).all(|(a, b)| a >= b));
+        Medium {
+            sigma_maj,
+            ..self.clone()
+        }
+    }
+
     /// Layer boundaries (km), ascending from the ground.
     pub fn levels_km(&self) -> &[f64] {
         &self.levels_km

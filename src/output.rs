@@ -6,7 +6,9 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::openexr::{Channel, write_exr};
 use crate::render::{Direction, Fluxes, Tally};
+use crate::transmittance::{Grid, Table as TransmittanceTable};
 
 /// Header of the radiance CSV of a `directions` sensor.
 pub const RADIANCE_CSV_HEADER: &str =
@@ -108,6 +110,83 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result.map_err(io)
+}
+
+/// Header of the transmittance CSV (with `sqrt_T` appended when exported).
+pub const TRANSMITTANCE_CSV_HEADER: &str = "wavelength_nm,altitude_km,distance_km,T,T_se,blocked";
+
+/// The transmittance CSV of one task: one row per wavelength, altitude and
+/// distance (in that nesting).
+pub fn transmittance_csv(
+    wavelengths_nm: &[f64],
+    grid: &Grid,
+    table: &TransmittanceTable,
+    sqrt: bool,
+) -> String {
+    let mut s = String::from(TRANSMITTANCE_CSV_HEADER);
+    s.push_str(if sqrt { ",sqrt_T\n" } else { "\n" });
+    let n_d = grid.distances_km.len();
+    for (w, lambda) in wavelengths_nm.iter().enumerate() {
+        for (k, (&t, &se)) in table.t[w].iter().zip(&table.se[w]).enumerate() {
+            let (a, d) = (grid.altitudes_km[k / n_d], grid.distances_km[k % n_d]);
+            s.push_str(&format!(
+                "{lambda},{a},{d},{t:.9e},{se:.4e},{}",
+                u8::from(table.blocked[k])
+            ));
+            if sqrt {
+                s.push_str(&format!(",{:.9e}", t.max(0.0).sqrt()));
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// The transmittance EXR of one task: width = distance nodes, height =
+/// altitude nodes (row 0 = the lowest altitude), channels `<λ>nm.T`,
+/// `<λ>nm.T_se` (and `<λ>nm.sqrtT`) per wavelength and `blocked`.
+pub fn write_transmittance_exr(
+    path: &Path,
+    wavelengths_nm: &[f64],
+    grid: &Grid,
+    table: &TransmittanceTable,
+    sqrt: bool,
+    attributes: &[(String, String)],
+) -> Result<()> {
+    let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+    let mut channels = Vec::new();
+    for (w, lambda) in wavelengths_nm.iter().enumerate() {
+        channels.push(Channel {
+            name: format!("{lambda}nm.T"),
+            samples: f32s(&table.t[w]),
+        });
+        channels.push(Channel {
+            name: format!("{lambda}nm.T_se"),
+            samples: f32s(&table.se[w]),
+        });
+        if sqrt {
+            let r: Vec<f64> = table.t[w].iter().map(|t| t.max(0.0).sqrt()).collect();
+            channels.push(Channel {
+                name: format!("{lambda}nm.sqrtT"),
+                samples: f32s(&r),
+            });
+        }
+    }
+    channels.push(Channel {
+        name: "blocked".into(),
+        samples: table
+            .blocked
+            .iter()
+            .map(|&b| f32::from(u8::from(b)))
+            .collect(),
+    });
+    write_exr(
+        path,
+        grid.distances_km.len(),
+        grid.altitudes_km.len(),
+        channels,
+        attributes,
+    )
 }
 
 #[cfg(test)]

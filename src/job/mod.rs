@@ -15,6 +15,7 @@ use crate::medium::Medium;
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
+use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
 
@@ -28,6 +29,7 @@ pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
 mod atmosphere;
 mod raw;
 mod render;
+mod transmittance;
 
 pub use render::RenderSpec;
 
@@ -75,6 +77,9 @@ pub struct Job {
     /// The job's grid: visibility × observer altitude, in that order.
     pub tasks: Vec<Task>,
     pub render: RenderSpec,
+    pub transmittance: TransmittanceSpec,
+    /// FNV-1a hash of the job text (hex), identifying the job in outputs.
+    pub hash: String,
 }
 
 /// One point of the job's grid.
@@ -344,6 +349,12 @@ impl Job {
         let atmosphere = tasks[0].atmosphere.clone();
         let observer_altitude_km = tasks[0].observer_altitude_km;
 
+        let transmittance = transmittance::resolve(
+            &ctx,
+            raw.transmittance,
+            top_km,
+            (geometry == GeometryKind::Spherical).then_some(radius_km),
+        )?;
         let render = render::resolve(
             &ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output,
         )?;
@@ -361,6 +372,15 @@ impl Job {
             atmosphere,
             tasks,
             render,
+            transmittance,
+            hash: format!("{:016x}", fnv1a(text.as_bytes())),
         })
     }
+}
+
+/// FNV-1a, 64 bit (Fowler, Noll & Vo): a stable hash of the job text.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }

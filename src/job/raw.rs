@@ -19,6 +19,7 @@ pub(super) struct RawJob {
     pub(super) sensor: Option<RawSensor>,
     pub(super) render: Option<RawRender>,
     pub(super) output: Option<RawOutput>,
+    pub(super) transmittance: Option<RawTransmittance>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -171,4 +172,24 @@ impl OneOrMany {
             OneOrMany::Many(v) => v.clone(),
         }
     }
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawEstimator {
+    RatioTracking,
+    Analytic,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTransmittance {
+    pub(super) altitude_nodes: Option<i64>,
+    pub(super) distance_nodes: Option<i64>,
+    pub(super) max_distance_km: Option<f64>,
+    pub(super) altitudes_km: Option<Vec<f64>>,
+    pub(super) distances_km: Option<Vec<f64>>,
+    pub(super) estimator: Option<RawEstimator>,
+    pub(super) samples: Option<u64>,
+    pub(super) export_sqrt: Option<bool>,
 }

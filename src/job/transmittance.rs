@@ -1,0 +1,105 @@
+//! Resolving the `[transmittance]` section.
+
+use super::Ctx;
+use super::raw::{RawEstimator, RawTransmittance};
+use crate::error::Result;
+use crate::transmittance::{Estimator, Grid, SKY_MODEL_MAX_DISTANCE_KM, TransmittanceSpec};
+
+/// Default altitude nodes of the sky-model layout.
+pub const DEFAULT_ALTITUDE_NODES: usize = 32;
+/// Default distance nodes of the sky-model layout.
+pub const DEFAULT_DISTANCE_NODES: usize = 64;
+/// Default ratio-tracking samples per point.
+pub const DEFAULT_SAMPLES: u64 = 1000;
+
+pub(super) fn resolve(
+    ctx: &Ctx,
+    raw: Option<RawTransmittance>,
+    top_km: f64,
+    radius_km: Option<f64>,
+) -> Result<TransmittanceSpec> {
+    let raw = raw.unwrap_or_default();
+    let nodes = |key: &str, v: Option<i64>, default: usize| -> Result<usize> {
+        match v {
+            None => Ok(default),
+            Some(n) if n >= 2 => Ok(n as usize),
+            Some(n) => Err(ctx.invalid(key, n, "fewer than 2 nodes", "2 or more")),
+        }
+    };
+    let n_a = nodes(
+        "transmittance.altitude_nodes",
+        raw.altitude_nodes,
+        DEFAULT_ALTITUDE_NODES,
+    )?;
+    let n_d = nodes(
+        "transmittance.distance_nodes",
+        raw.distance_nodes,
+        DEFAULT_DISTANCE_NODES,
+    )?;
+    // A point beyond half the planet's circumference is the same as a nearer one.
+    let max_d = radius_km.map_or(f64::MAX, |r| std::f64::consts::PI * r);
+    let max_d_text = radius_km.map_or("≥ 0 km".to_string(), |_| {
+        format!("0 to {max_d:.1} km (half the circumference)")
+    });
+    let d_max = ctx.range(
+        "transmittance.max_distance_km",
+        raw.max_distance_km.unwrap_or(SKY_MODEL_MAX_DISTANCE_KM),
+        0.0,
+        max_d,
+        true,
+        &max_d_text,
+    )?;
+    let mut grid = Grid::sky_model(top_km, n_a, n_d, d_max);
+    let list = |key: &str, values: &[f64], hi: f64, valid: &str| -> Result<Vec<f64>> {
+        if values.len() < 2 {
+            return Err(ctx.invalid(
+                key,
+                format!("{values:?}"),
+                "fewer than 2 nodes",
+                "a list of 2 or more",
+            ));
+        }
+        values
+            .iter()
+            .map(|&v| ctx.range(key, v, 0.0, hi, false, valid))
+            .collect()
+    };
+    if let Some(a) = &raw.altitudes_km {
+        grid.altitudes_km = list(
+            "transmittance.altitudes_km",
+            a,
+            top_km,
+            &format!("0 to planet.top_km ({top_km} km)"),
+        )?;
+        grid.definition = format!(
+            "altitudes_km = {:?}; {}",
+            grid.altitudes_km, grid.definition
+        );
+    }
+    if let Some(d) = &raw.distances_km {
+        grid.distances_km = list("transmittance.distances_km", d, max_d, &max_d_text)?;
+        grid.definition = format!(
+            "distances_km = {:?}; {}",
+            grid.distances_km, grid.definition
+        );
+    }
+    if raw.altitudes_km.is_some() && raw.distances_km.is_some() {
+        grid.definition = format!(
+            "altitudes_km = {:?}; distances_km = {:?}",
+            grid.altitudes_km, grid.distances_km
+        );
+    }
+    let samples = raw.samples.unwrap_or(DEFAULT_SAMPLES);
+    if samples == 0 {
+        return Err(ctx.invalid("transmittance.samples", 0, "no samples", "at least 1"));
+    }
+    Ok(TransmittanceSpec {
+        grid,
+        estimator: match raw.estimator.unwrap_or(RawEstimator::RatioTracking) {
+            RawEstimator::RatioTracking => Estimator::RatioTracking,
+            RawEstimator::Analytic => Estimator::Analytic,
+        },
+        samples,
+        export_sqrt: raw.export_sqrt.unwrap_or(false),
+    })
+}
