@@ -60,6 +60,10 @@ pub struct Settings {
     /// Force a collision on flights that would otherwise leave the
     /// atmosphere or die on a black ground (piecewise-constant media).
     pub forced_collisions: bool,
+    /// Sun connections per forced flight: stratified points along the
+    /// flight, each with 1/K of the weight (the path goes on from one of
+    /// them, picked uniformly).
+    pub sun_samples_per_flight: u32,
 }
 
 /// Everything a path needs at one wavelength.
@@ -128,7 +132,7 @@ impl Scene {
         let forced = self.settings.forced_collisions && self.medium.is_piecewise_constant();
         let mut segments = Vec::with_capacity(2 * self.medium.levels_km().len());
         loop {
-            let flight = if forced {
+            let (flight, stratify) = if forced {
                 let f = tracking::forced_flight(
                     &self.medium,
                     &self.geometry,
@@ -138,18 +142,62 @@ impl Scene {
                     &mut segments,
                 );
                 path.throughput = path.throughput * f.weight;
-                f.end
+                (
+                    f.end,
+                    f.forced_probability
+                        .filter(|_| self.settings.sun_samples_per_flight > 1),
+                )
             } else {
-                tracking::delta_track(&self.medium, &self.geometry, &ray, sampler)
+                (
+                    tracking::delta_track(&self.medium, &self.geometry, &ray, sampler),
+                    None,
+                )
             };
             match flight {
-                FlightEnd::Collided(c) => {
+                FlightEnd::Collided(first) => {
+                    let k_out = -ray.dir;
+                    path.order += 1;
+                    let c = match stratify {
+                        None => {
+                            let x = ray.origin + first.t * ray.dir;
+                            let coeffs = self.medium.at(first.layer, self.geometry.altitude(x));
+                            let before = path.throughput;
+                            path.throughput = before * (coeffs.sigma_s() / coeffs.sigma_t);
+                            self.sun_from_scattering(path, x, first.layer, k_out, &coeffs, sampler);
+                            path.throughput = before;
+                            first
+                        }
+                        // Stratified sun connections along the flight: K points
+                        // with the forced distribution, 1/K of the weight each;
+                        // the path goes on from one of them.
+                        Some(p) => {
+                            let k = self.settings.sun_samples_per_flight;
+                            let before = path.throughput;
+                            let pick = (sampler.next_f64() * k as f64) as u32;
+                            let mut chosen = first;
+                            for i in 0..k {
+                                let u = (i as f64 + sampler.next_f64()) / k as f64;
+                                let c = tracking::locate(
+                                    &self.medium,
+                                    &segments,
+                                    tracking::forced_distance(u, p),
+                                );
+                                let x = ray.origin + c.t * ray.dir;
+                                let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
+                                path.throughput =
+                                    before * (coeffs.sigma_s() / coeffs.sigma_t / k as f64);
+                                self.sun_from_scattering(path, x, c.layer, k_out, &coeffs, sampler);
+                                if i == pick {
+                                    chosen = c;
+                                }
+                            }
+                            path.throughput = before;
+                            chosen
+                        }
+                    };
                     let x = ray.origin + c.t * ray.dir;
                     let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
-                    let k_out = -ray.dir;
                     path.throughput = path.throughput * (coeffs.sigma_s() / coeffs.sigma_t);
-                    path.order += 1;
-                    self.sun_from_scattering(path, x, c.layer, k_out, &coeffs, sampler);
                     if self.order_done(path.order) {
                         return;
                     }

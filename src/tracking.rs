@@ -264,6 +264,10 @@ pub fn delta_track(
 pub struct ForcedFlight {
     pub end: FlightEnd,
     pub weight: f64,
+    /// The probability 1 − e^(−τ) the collision was forced with (`None`
+    /// for an analog flight): distances for further points with the same
+    /// distribution come from [`forced_distance`].
+    pub forced_probability: Option<f64>,
 }
 
 /// Collision sampling with forced collisions in a piecewise-constant medium
@@ -299,16 +303,17 @@ pub fn forced_flight(
         ControlFlow::Continue(())
     });
     let u = sampler.next_f64();
-    let (tau_target, weight) = match end {
+    let (tau_target, weight, forced_probability) = match end {
         WalkEnd::Ground { t } if ground_counts => {
             let tau = -(1.0 - u).ln();
             if tau >= tau_exit {
                 return ForcedFlight {
                     end: FlightEnd::Ground { t },
                     weight: 1.0,
+                    forced_probability: None,
                 };
             }
-            (tau, 1.0)
+            (tau, 1.0, None)
         }
         _ => {
             if tau_exit <= 0.0 {
@@ -317,39 +322,53 @@ pub fn forced_flight(
                     WalkEnd::Top { t } => FlightEnd::Top { t },
                     _ => FlightEnd::Endless,
                 };
-                return ForcedFlight { end, weight: 1.0 };
+                return ForcedFlight {
+                    end,
+                    weight: 1.0,
+                    forced_probability: None,
+                };
             }
             // P(collide before the end) = 1 − e^(−τ), computed without cancellation.
             let p = -(-tau_exit).exp_m1();
-            (-(-u * p).ln_1p(), p)
+            (forced_distance(u, p), p, Some(p))
         }
     };
+    ForcedFlight {
+        end: FlightEnd::Collided(locate(medium, segments, tau_target)),
+        weight,
+        forced_probability,
+    }
+}
+
+/// The point at optical depth `tau_target` along the walked `segments`.
+pub fn locate(medium: &Medium, segments: &[(Segment, f64)], tau_target: f64) -> Collision {
     let mut acc = 0.0;
-    for &(seg, tau) in segments.iter() {
+    for &(seg, tau) in segments {
         if acc + tau >= tau_target {
             let sigma = medium.sigma_maj(seg.layer);
             let t = (seg.t0 + (tau_target - acc) / sigma).min(seg.t1);
-            return ForcedFlight {
-                end: FlightEnd::Collided(Collision {
-                    t,
-                    layer: seg.layer,
-                    sigma_maj: sigma,
-                }),
-                weight,
+            return Collision {
+                t,
+                layer: seg.layer,
+                sigma_maj: sigma,
             };
         }
         acc += tau;
     }
-    // Rounding left the target just beyond the last segment: collide at its end.
+    // Rounding left the target just beyond the last segment: its end.
     let (seg, _) = segments[segments.len() - 1];
-    ForcedFlight {
-        end: FlightEnd::Collided(Collision {
-            t: seg.t1,
-            layer: seg.layer,
-            sigma_maj: medium.sigma_maj(seg.layer),
-        }),
-        weight,
+    Collision {
+        t: seg.t1,
+        layer: seg.layer,
+        sigma_maj: medium.sigma_maj(seg.layer),
     }
+}
+
+/// The optical depth of a forced collision for the uniform variate `u`,
+/// with forcing probability `p` = 1 − e^(−τ_exit): the inverse of the
+/// truncated exponential.
+pub fn forced_distance(u: f64, p: f64) -> f64 {
+    -(-u * p).ln_1p()
 }
 
 /// Ratio-tracking estimate of the transmittance from the ray's origin to

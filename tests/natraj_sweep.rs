@@ -31,6 +31,10 @@ fn natraj_2009_full_sweep() {
     let (mut max_rel_i, mut max_dq, mut max_du) = (0.0f64, 0.0f64, 0.0f64);
     let mut worst_i = String::new();
     let start = std::time::Instant::now();
+    // ATMOSIM_SWEEP_CSV=path writes every comparison for analysis.
+    let mut dump = String::from(
+        "tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref\n",
+    );
     for [tau, albedo, mu0, level] in keys {
         let group: Vec<&Vec<f64>> = rows
             .iter()
@@ -63,6 +67,10 @@ fn natraj_2009_full_sweep() {
                 };
                 cmp.add(what, m[k], se[k], r[6 + k], 0.5e-8 / PI);
             }
+            dump.push_str(&format!(
+                "{tau},{albedo},{mu0},{level},{},{},{},{},{},{},{},{},{},{},{}\n",
+                r[4], r[5], m[0], se[0], r[6], m[1], se[1], r[7], m[2], se[2], r[8]
+            ));
             let rel = (m[0] / r[6] - 1.0).abs();
             if rel > max_rel_i {
                 max_rel_i = rel;
@@ -74,6 +82,9 @@ fn natraj_2009_full_sweep() {
             max_dq = max_dq.max(PI * (m[1] - r[7]).abs());
             max_du = max_du.max(PI * (m[2] - r[8]).abs());
         }
+    }
+    if let Ok(path) = std::env::var("ATMOSIM_SWEEP_CSV") {
+        std::fs::write(path, dump).unwrap();
     }
     eprintln!(
         "Natraj sweep: {} directions × {n} paths in {:.0} s; max |ΔI/I| = {:.3} % ({worst_i}); max π|ΔQ| = {max_dq:.2e}; max π|ΔU| = {max_du:.2e}",

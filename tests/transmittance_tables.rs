@@ -128,7 +128,10 @@ fn direct_beam_matches_libradtran_edir() {
         );
         let t = (-optical_depth_to(&m[0], &g, &ray, length_km)).exp();
         let expect = edir / mu;
-        eprintln!("{aerosol} {h} km: T = {t:.7}, libRadtran edir/μ0 = {expect:.7}, ratio {:.6}", t / expect);
+        eprintln!(
+            "{aerosol} {h} km: T = {t:.7}, libRadtran edir/μ0 = {expect:.7}, ratio {:.6}",
+            t / expect
+        );
         assert!(
             (t / expect - 1.0).abs() < 1e-3,
             "{aerosol} {h} km: T {t} vs edir/μ0 {expect}"

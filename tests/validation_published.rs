@@ -42,9 +42,11 @@ fn natraj_2009_subset() {
                         .collect();
                     assert!(!rows.is_empty());
                     let text = format!(
-                        "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = 7\n",
+                        "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = 7\nsun_samples_per_flight = {}\n",
                         layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),
-                        mu0.acos().to_degrees()
+                        mu0.acos().to_degrees(),
+                        // Both the single and the stratified sun connections.
+                        if tau == 1.0 { 3 } else { 1 }
                     );
                     let j = job(&text);
                     let tallies = render(&j, level, &directions(&rows, 4, 5), n);

@@ -149,6 +149,7 @@ pub(super) struct RawRender {
     pub(super) sun_transmittance: Option<RawSunTransmittance>,
     pub(super) majorant_scale: Option<f64>,
     pub(super) forced_collisions: Option<bool>,
+    pub(super) sun_samples_per_flight: Option<u32>,
 }
 
 #[derive(Debug, Default, Deserialize)]

@@ -178,6 +178,17 @@ pub(super) fn resolve(
                 RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
             },
             forced_collisions: render.forced_collisions.unwrap_or(true),
+            sun_samples_per_flight: match render.sun_samples_per_flight.unwrap_or(1) {
+                0 => {
+                    return Err(ctx.invalid(
+                        "render.sun_samples_per_flight",
+                        0,
+                        "no sun connections",
+                        "1 or more",
+                    ));
+                }
+                k => k,
+            },
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {
             RawMedium::Layered => MediumModel::Layered,
