@@ -63,15 +63,9 @@ impl Component {
                 rows.sort_by(|a, b| a[0].total_cmp(&b[0]));
                 let wl: Vec<f64> = rows.iter().map(|r| r[0]).collect();
                 if wl.windows(2).any(|w| w[1] <= w[0]) {
-                    return Err(Error::data(
-                        name,
-                        format!("duplicate wavelength at RH {rh} %"),
-                    ));
+                    return Err(Error::data(name, format!("duplicate wavelength at RH {rh} %")));
                 }
-                let v = rows
-                    .iter()
-                    .map(|r| [r[2], r[2] * r[3], r[2] * r[3] * r[4]])
-                    .collect();
+                let v = rows.iter().map(|r| [r[2], r[2] * r[3], r[2] * r[3] * r[4]]).collect();
                 Ok((wl, v))
             })
             .collect::<Result<Vec<_>>>()?;
@@ -100,11 +94,9 @@ impl Component {
 
     /// The wavelength range (nm) covered at every humidity.
     pub fn range_nm(&self) -> (f64, f64) {
-        self.tables
-            .iter()
-            .fold((f64::MIN, f64::MAX), |(lo, hi), (wl, _)| {
-                (lo.max(wl[0]), hi.min(wl[wl.len() - 1]))
-            })
+        self.tables.iter().fold((f64::MIN, f64::MAX), |(lo, hi), (wl, _)| {
+            (lo.max(wl[0]), hi.min(wl[wl.len() - 1]))
+        })
     }
 
     /// Optics at λ (nm) for the tabulated humidity index `rh`; `None` outside
@@ -158,10 +150,7 @@ impl Mixture {
             .map(str::to_string)
             .collect();
         if table.rows[0].len() != components.len() + 1 {
-            return Err(Error::data(
-                name,
-                "column count does not match the components line",
-            ));
+            return Err(Error::data(name, "column count does not match the components line"));
         }
         table.require_ascending(0, "altitudes")?;
         if table.rows.iter().flatten().any(|&m| m < 0.0) {
@@ -266,10 +255,7 @@ impl Aerosol {
             .iter()
             .map(|c| Component::builtin(c).transpose())
             .collect::<Result<Vec<_>>>()?;
-        Ok(Aerosol {
-            mixture,
-            components,
-        })
+        Ok(Aerosol { mixture, components })
     }
 
     /// The wavelength range (nm) every component with mass covers, and the
@@ -291,12 +277,7 @@ impl Aerosol {
 
     /// Optics of gas layer `i` of `profile` at λ (nm), with the layer's own
     /// relative humidity. `None` if λ is outside a component's table.
-    pub fn layer_optics(
-        &self,
-        profile: &GasProfile,
-        i: usize,
-        lambda_nm: f64,
-    ) -> Option<AerosolOptics> {
+    pub fn layer_optics(&self, profile: &GasProfile, i: usize, lambda_nm: f64) -> Option<AerosolOptics> {
         let (z0, z1) = (profile.levels[i].z_km, profile.levels[i + 1].z_km);
         let rh = profile.layer_relative_humidity_pct(i);
         let mut out = AerosolOptics::default();
@@ -354,10 +335,7 @@ mod tests {
     fn wavelength_interpolation_is_linear_in_k_ext_k_sca_and_g_k_sca() {
         // Between the 500 and 540 nm nodes of inso, at 520 nm.
         let inso = Component::builtin("inso").unwrap().unwrap();
-        let (a, b) = (
-            inso.optics(500.0, 0).unwrap(),
-            inso.optics(540.0, 0).unwrap(),
-        );
+        let (a, b) = (inso.optics(500.0, 0).unwrap(), inso.optics(540.0, 0).unwrap());
         let m = inso.optics(520.0, 0).unwrap();
         assert!((m.k_ext - 0.5 * (a.k_ext + b.k_ext)).abs() < 1e-9);
         assert!((m.k_sca - 0.5 * (a.k_sca + b.k_sca)).abs() < 1e-9);
@@ -394,10 +372,7 @@ mod tests {
     fn mixtures_without_data_name_the_missing_components() {
         for name in ["desert", "maritime_clean", "antarctic"] {
             let e = Aerosol::builtin(name).unwrap().unwrap_err().to_string();
-            assert!(
-                e.contains("needs OPAC component") && e.contains(name),
-                "{e}"
-            );
+            assert!(e.contains("needs OPAC component") && e.contains(name), "{e}");
         }
         for name in [
             "continental_average",

@@ -187,26 +187,14 @@ impl Atmosphere {
         };
         for &l in wavelengths_nm {
             if spec.rayleigh == RayleighModel::Bodhaine {
-                check(
-                    l,
-                    "the Bodhaine Rayleigh formula",
-                    rayleigh::WAVELENGTH_RANGE_NM,
-                )?;
+                check(l, "the Bodhaine Rayleigh formula", rayleigh::WAVELENGTH_RANGE_NM)?;
             }
             if let Some(x) = &ozone {
-                check(
-                    l,
-                    &format!("the {} ozone cross section", x.name),
-                    x.range_nm(),
-                )?;
+                check(l, &format!("the {} ozone cross section", x.name), x.range_nm())?;
             }
             if let Some(a) = &spec.aerosol {
                 let (range, comp) = a.range_nm();
-                check(
-                    l,
-                    &format!("OPAC component `{comp}` of `{}`", a.mixture.name),
-                    range,
-                )?;
+                check(l, &format!("OPAC component `{comp}` of `{}`", a.mixture.name), range)?;
             }
         }
 
@@ -385,24 +373,15 @@ impl Atmosphere {
 /// Ground extinction at 550 nm split into Rayleigh, free-tropospheric and
 /// boundary-layer aerosol. "At the ground": Rayleigh from the air density of
 /// the lowest level, aerosol of the lowest layer.
-fn ground_extinction(
-    profile: &GasProfile,
-    model: RayleighModel,
-    aerosol: &Aerosol,
-) -> GroundExtinction {
+fn ground_extinction(profile: &GasProfile, model: RayleighModel, aerosol: &Aerosol) -> GroundExtinction {
     let lambda = VISIBILITY_WAVELENGTH_NM;
     let rayleigh = match model {
         RayleighModel::Bodhaine => {
-            rayleigh::cross_section_cm2(lambda, profile.surface_co2_ratio())
-                * profile.levels[0].n_air
-                * CM_PER_KM
+            rayleigh::cross_section_cm2(lambda, profile.surface_co2_ratio()) * profile.levels[0].n_air * CM_PER_KM
         }
         RayleighModel::None => 0.0,
     };
-    let total = aerosol
-        .layer_optics(profile, 0, lambda)
-        .unwrap_or_default()
-        .sigma_ext;
+    let total = aerosol.layer_optics(profile, 0, lambda).unwrap_or_default().sigma_ext;
     let boundary = aerosol
         .boundary_layer_only()
         .layer_optics(profile, 0, lambda)

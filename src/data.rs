@@ -38,9 +38,8 @@ impl Table {
             let row = s
                 .split_whitespace()
                 .map(|w| {
-                    w.parse::<f64>().map_err(|_| {
-                        Error::data(name, format!("line {}: `{w}` is not a number", i + 1))
-                    })
+                    w.parse::<f64>()
+                        .map_err(|_| Error::data(name, format!("line {}: `{w}` is not a number", i + 1)))
                 })
                 .collect::<Result<Vec<f64>>>()?;
             let expected = if columns > 0 {
@@ -55,10 +54,7 @@ impl Table {
                 ));
             }
             if let Some(bad) = row.iter().find(|v| !v.is_finite()) {
-                return Err(Error::data(
-                    name,
-                    format!("line {}: non-finite value {bad}", i + 1),
-                ));
+                return Err(Error::data(name, format!("line {}: non-finite value {bad}", i + 1)));
             }
             rows.push(row);
         }
@@ -91,10 +87,7 @@ impl Table {
             if w[1][j] <= w[0][j] {
                 return Err(Error::data(
                     &self.name,
-                    format!(
-                        "{what} must increase strictly ({} then {})",
-                        w[0][j], w[1][j]
-                    ),
+                    format!("{what} must increase strictly ({} then {})", w[0][j], w[1][j]),
                 ));
             }
         }
@@ -147,10 +140,7 @@ pub static OZONE_CROSS_SECTIONS: &[(&str, &str)] = embedded! {
 };
 
 /// Kurucz (1992) extraterrestrial solar irradiance, 1 nm, W m⁻² nm⁻¹.
-pub static SOLAR_KURUCZ: &str = include_str!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/spectra/solar_kurucz_1nm.txt"
-));
+pub static SOLAR_KURUCZ: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/solar_kurucz_1nm.txt"));
 
 /// Looks up a built-in table by name.
 pub fn builtin(set: &'static [(&'static str, &'static str)], name: &str) -> Option<&'static str> {
@@ -218,12 +208,7 @@ mod tests {
 
     #[test]
     fn every_builtin_table_parses() {
-        for set in [
-            AFGL_PROFILES,
-            OPAC_MIXTURES,
-            OPAC_COMPONENTS,
-            OZONE_CROSS_SECTIONS,
-        ] {
+        for set in [AFGL_PROFILES, OPAC_MIXTURES, OPAC_COMPONENTS, OZONE_CROSS_SECTIONS] {
             for (name, text) in set {
                 Table::parse(name, text, 0).unwrap();
             }

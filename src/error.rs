@@ -24,10 +24,7 @@ pub enum Error {
     /// A data table (built-in or user-supplied) is malformed or does not cover
     /// what the job asks for.
     #[error("{source_name}: {message}")]
-    Data {
-        source_name: String,
-        message: String,
-    },
+    Data { source_name: String, message: String },
 
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]

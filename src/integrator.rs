@@ -92,13 +92,7 @@ impl Scene {
     /// One sample of the diffuse Stokes radiance arriving at the observer
     /// from viewing direction `view` (unit, observer frame), in the meridian
     /// frame of `view` (`phi_fallback` fixes it at the zenith and nadir).
-    pub fn radiance_sample(
-        &self,
-        altitude_km: f64,
-        view: DVec3,
-        phi_fallback: f64,
-        sampler: &mut Sampler,
-    ) -> Stokes {
+    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, phi_fallback: f64, sampler: &mut Sampler) -> Stokes {
         let origin = self.observer_position(altitude_km);
         let up = self.geometry.up(origin);
         let (e1, _) = meridian_frame(view, phi_fallback);
@@ -108,8 +102,7 @@ impl Scene {
             order: 0,
             radiance: Stokes::zero(),
         };
-        let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up))
-        else {
+        let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up)) else {
             // Looking down from the ground: the ground itself at distance 0.
             if altitude_km <= self.medium.levels_km()[0] && view.dot(up) < 0.0 {
                 self.trace_from_ground(&mut path, origin, -view, sampler);
@@ -148,10 +141,7 @@ impl Scene {
                         .filter(|_| self.settings.sun_samples_per_flight > 1),
                 )
             } else {
-                (
-                    tracking::delta_track(&self.medium, &self.geometry, &ray, sampler),
-                    None,
-                )
+                (tracking::delta_track(&self.medium, &self.geometry, &ray, sampler), None)
             };
             match flight {
                 FlightEnd::Collided(first) => {
@@ -177,15 +167,10 @@ impl Scene {
                             let mut chosen = first;
                             for i in 0..k {
                                 let u = (i as f64 + sampler.next_f64()) / k as f64;
-                                let c = tracking::locate(
-                                    &self.medium,
-                                    &segments,
-                                    tracking::forced_distance(u, p),
-                                );
+                                let c = tracking::locate(&self.medium, &segments, tracking::forced_distance(u, p));
                                 let x = ray.origin + c.t * ray.dir;
                                 let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
-                                path.throughput =
-                                    before * (coeffs.sigma_s() / coeffs.sigma_t / k as f64);
+                                path.throughput = before * (coeffs.sigma_s() / coeffs.sigma_t / k as f64);
                                 self.sun_from_scattering(path, x, c.layer, k_out, &coeffs, sampler);
                                 if i == pick {
                                     chosen = c;
@@ -212,11 +197,7 @@ impl Scene {
                     }
                     let dir = -k_in;
                     let layer = self.layer_after(c.layer, x, dir);
-                    ray = Ray {
-                        origin: x,
-                        dir,
-                        layer,
-                    };
+                    ray = Ray { origin: x, dir, layer };
                 }
                 FlightEnd::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
@@ -238,13 +219,7 @@ impl Scene {
 
     /// Ground vertex at `x` reached by light leaving along `k_out`: NEE to
     /// the sun, then the Lambertian weight. Returns whether the path goes on.
-    fn trace_from_ground(
-        &self,
-        path: &mut Path,
-        x: DVec3,
-        _k_out: DVec3,
-        sampler: &mut Sampler,
-    ) -> bool {
+    fn trace_from_ground(&self, path: &mut Path, x: DVec3, _k_out: DVec3, sampler: &mut Sampler) -> bool {
         if self.albedo <= 0.0 {
             return false;
         }
@@ -305,9 +280,7 @@ impl Scene {
 
     fn sun_transmittance(&self, ray: Ray, sampler: &mut Sampler) -> f64 {
         match self.settings.sun_transmittance {
-            SunTransmittance::Analytic => {
-                tracking::analytic_transmittance(&self.medium, &self.geometry, &ray)
-            }
+            SunTransmittance::Analytic => tracking::analytic_transmittance(&self.medium, &self.geometry, &ray),
             SunTransmittance::RatioTracking => {
                 tracking::ratio_tracking_transmittance(&self.medium, &self.geometry, &ray, sampler)
             }

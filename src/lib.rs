@@ -14,6 +14,7 @@
 
 pub mod aerosol;
 pub mod atmosphere;
+pub mod camera;
 pub mod constants;
 pub mod data;
 pub mod error;

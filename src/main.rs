@@ -122,8 +122,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     if job.tasks.len() > 1 {
                         writeln!(out, "# task {}", task.name).context("writing to stdout")?;
                     }
-                    out.write_all(radiance.as_bytes())
-                        .context("writing to stdout")?;
+                    out.write_all(radiance.as_bytes()).context("writing to stdout")?;
                     out.flush().context("writing to stdout")?;
                 } else {
                     // One task: the files go in the output directory itself;
@@ -135,10 +134,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     };
                     output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
                     if !result.fluxes.is_empty() {
-                        output::write_atomic(
-                            &dir.join("fluxes.csv"),
-                            output::flux_csv(&result.fluxes).as_bytes(),
-                        )?;
+                        output::write_atomic(&dir.join("fluxes.csv"), output::flux_csv(&result.fluxes).as_bytes())?;
                     }
                     log(&format!("wrote {}", dir.display()));
                 }
@@ -156,21 +152,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .build()
                 .context("starting worker threads")?;
             let base = out.unwrap_or_else(|| job.render.output_directory.clone());
-            for task in &job.tasks {
+            let tasks = job.transmittance_tasks();
+            for (task, name) in &tasks {
                 let start = std::time::Instant::now();
                 let table = pool.install(|| transmittance_table(&job, task));
                 let spec = &job.transmittance;
-                let dir = if job.tasks.len() == 1 {
+                let dir = if tasks.len() == 1 {
                     base.clone()
                 } else {
-                    base.join(&task.name)
+                    base.join(name)
                 };
-                let csv = output::transmittance_csv(
-                    &job.wavelengths_nm,
-                    &spec.grid,
-                    &table,
-                    spec.export_sqrt,
-                );
+                let csv = output::transmittance_csv(&job.wavelengths_nm, &spec.grid, &table, spec.export_sqrt);
                 output::write_atomic(&dir.join("transmittance.csv"), csv.as_bytes())?;
                 output::write_transmittance_exr(
                     &dir.join("transmittance.exr"),
@@ -178,13 +170,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     &spec.grid,
                     &table,
                     spec.export_sqrt,
-                    &transmittance_attributes(&job, task),
+                    &transmittance_attributes(&job, task, name),
                 )?;
                 if !quiet {
                     let secs = start.elapsed().as_secs_f64();
                     eprintln!(
                         "{}: {} points × {} wavelengths in {secs:.2} s ({:.0} points/s, {}) → {}",
-                        task.name,
+                        name,
                         spec.grid.len(),
                         job.wavelengths_nm.len(),
                         spec.grid.len() as f64 / secs,
@@ -202,8 +194,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let stdout = std::io::stdout();
             let mut out = stdout.lock();
-            report::write_atmosphere(&job.atmosphere, format, &mut out)
-                .context("writing to stdout")?;
+            report::write_atmosphere(&job.atmosphere, format, &mut out).context("writing to stdout")?;
             out.flush().context("writing to stdout")?;
         }
     }
@@ -212,14 +203,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 
 fn transmittance_table(job: &Job, task: &atmosim::job::Task) -> transmittance::Table {
     let media: Vec<Medium> = (0..job.wavelengths_nm.len())
-        .map(|w| {
-            Medium::new(
-                &task.atmosphere,
-                w,
-                job.render.medium,
-                job.render.majorant_scale,
-            )
-        })
+        .map(|w| Medium::new(&task.atmosphere, w, job.render.medium, job.render.majorant_scale))
         .collect();
     transmittance::compute(
         &job.transmittance,
@@ -232,27 +216,36 @@ fn transmittance_table(job: &Job, task: &atmosim::job::Task) -> transmittance::T
 }
 
 /// Metadata of a transmittance EXR: everything needed to interpret it.
-fn transmittance_attributes(job: &Job, task: &atmosim::job::Task) -> Vec<(String, String)> {
+fn transmittance_attributes(job: &Job, task: &atmosim::job::Task, name: &str) -> Vec<(String, String)> {
     let spec = &job.transmittance;
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    };
+    let list = |v: &[f64]| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ");
     vec![
         ("atmosim_version".into(), env!("CARGO_PKG_VERSION").into()),
         ("job_hash".into(), job.hash.clone()),
-        ("task".into(), task.name.clone()),
-        ("quantity".into(), "transmittance from the observer along the straight line of sight, no refraction".into()),
-        ("units".into(), "1 (T, T_se, sqrtT); blocked: 1 if the line of sight passes below the ground".into()),
-        ("layout".into(), "x (columns) = ground distance nodes, y (rows) = altitude nodes, row 0 = lowest altitude".into()),
+        ("task".into(), name.to_string()),
+        (
+            "quantity".into(),
+            "transmittance from the observer along the straight line of sight, no refraction".into(),
+        ),
+        (
+            "units".into(),
+            "1 (T, T_se, sqrtT); blocked: 1 if the line of sight passes below the ground".into(),
+        ),
+        (
+            "layout".into(),
+            "x (columns) = ground distance nodes, y (rows) = altitude nodes, row 0 = lowest altitude".into(),
+        ),
         ("grid".into(), spec.grid.definition.clone()),
         ("altitudes_km".into(), list(&spec.grid.altitudes_km)),
         ("distances_km".into(), list(&spec.grid.distances_km)),
         ("wavelengths_nm".into(), list(&job.wavelengths_nm)),
         ("observer_altitude_km".into(), format!("{}", task.observer_altitude_km)),
-        ("visibility_km".into(), task.atmosphere.visibility.map_or("none".into(), |v| format!("{}", v.ground_km))),
+        (
+            "visibility_km".into(),
+            task.atmosphere
+                .visibility
+                .map_or("none".into(), |v| format!("{}", v.ground_km)),
+        ),
         ("planet_radius_km".into(), format!("{}", job.planet.radius_km)),
         ("top_km".into(), format!("{}", job.planet.top_km)),
         ("estimator".into(), spec.estimator.name().into()),

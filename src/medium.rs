@@ -136,8 +136,7 @@ impl Medium {
         let (fr, fo) = match &self.shapes {
             None => (1.0, 1.0),
             Some(s) => {
-                let f = ((z_km - self.levels_km[i]) / (self.levels_km[i + 1] - self.levels_km[i]))
-                    .clamp(0.0, 1.0);
+                let f = ((z_km - self.levels_km[i]) / (self.levels_km[i + 1] - self.levels_km[i])).clamp(0.0, 1.0);
                 (s[i].rayleigh_factor(f), s[i].ozone_factor(f))
             }
         };
@@ -171,8 +170,8 @@ impl Medium {
         let z0 = geometry.altitude(origin + t0 * dir);
         let z1 = geometry.altitude(origin + t1 * dir);
         // Altitude is not monotonic along a limb chord; split finely enough.
-        let pieces = (((z1 - z0).abs() / (0.1 * dz)).ceil() as usize).clamp(1, 64)
-            * if (t1 - t0) > 4.0 * dz { 4 } else { 1 };
+        let pieces =
+            (((z1 - z0).abs() / (0.1 * dz)).ceil() as usize).clamp(1, 64) * if (t1 - t0) > 4.0 * dz { 4 } else { 1 };
         let h = (t1 - t0) / pieces as f64;
         let mut tau = 0.0;
         for k in 0..pieces {
@@ -240,11 +239,7 @@ mod tests {
         let n = 200_000;
         let h = t1 / n as f64;
         let mid: f64 = (0..n)
-            .map(|k| {
-                m.at(3, g.altitude(o + (k as f64 + 0.5) * h * DVec3::X))
-                    .sigma_t
-                    * h
-            })
+            .map(|k| m.at(3, g.altitude(o + (k as f64 + 0.5) * h * DVec3::X)).sigma_t * h)
             .sum();
         assert!((quad / mid - 1.0).abs() < 1e-8, "{quad} vs {mid}");
     }

@@ -37,10 +37,9 @@ pub fn write_exr(
         .collect();
     let mut layer_attributes = LayerAttributes::default();
     for (k, v) in attributes {
-        layer_attributes.other.insert(
-            Text::from(k.as_str()),
-            AttributeValue::Text(Text::from(v.as_str())),
-        );
+        layer_attributes
+            .other
+            .insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
     }
     let layer = Layer::new(
         (width, height),
@@ -50,10 +49,7 @@ pub fn write_exr(
     );
     let image = Image::from_layer(layer);
     let mut bytes = Cursor::new(Vec::new());
-    image
-        .write()
-        .to_buffered(&mut bytes)
-        .map_err(|e| fail(e.to_string()))?;
+    image.write().to_buffered(&mut bytes).map_err(|e| fail(e.to_string()))?;
     write_atomic(path, bytes.get_ref())
 }
 
@@ -139,9 +135,6 @@ mod tests {
         assert_eq!((exr.width, exr.height), (3, 2));
         let t = exr.channels.iter().find(|c| c.name == "540nm.T").unwrap();
         assert_eq!(t.samples, a);
-        assert!(
-            exr.attributes
-                .contains(&("units".to_string(), "1".to_string()))
-        );
+        assert!(exr.attributes.contains(&("units".to_string(), "1".to_string())));
     }
 }

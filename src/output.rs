@@ -14,8 +14,7 @@ use crate::transmittance::{Grid, Table as TransmittanceTable};
 pub const RADIANCE_CSV_HEADER: &str =
     "wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples";
 /// Header of the flux CSV.
-pub const FLUX_CSV_HEADER: &str =
-    "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples";
+pub const FLUX_CSV_HEADER: &str = "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples";
 
 /// The radiance of one direction at one wavelength and albedo.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,15 +68,7 @@ pub fn flux_csv(rows: &[FluxRow]) -> String {
         let f = &r.fluxes;
         s.push_str(&format!(
             "{},{},{},{:.9e},{:.9e},{:.9e},{:.4e},{:.4e},{}\n",
-            r.wavelength_nm,
-            r.albedo,
-            r.altitude_km,
-            f.e_dir,
-            f.e_down,
-            f.e_up,
-            f.e_down_se,
-            f.e_up_se,
-            f.samples
+            r.wavelength_nm, r.albedo, r.altitude_km, f.e_dir, f.e_down, f.e_up, f.e_down_se, f.e_up_se, f.samples
         ));
     }
     s
@@ -117,12 +108,7 @@ pub const TRANSMITTANCE_CSV_HEADER: &str = "wavelength_nm,altitude_km,distance_k
 
 /// The transmittance CSV of one task: one row per wavelength, altitude and
 /// distance (in that nesting).
-pub fn transmittance_csv(
-    wavelengths_nm: &[f64],
-    grid: &Grid,
-    table: &TransmittanceTable,
-    sqrt: bool,
-) -> String {
+pub fn transmittance_csv(wavelengths_nm: &[f64], grid: &Grid, table: &TransmittanceTable, sqrt: bool) -> String {
     let mut s = String::from(TRANSMITTANCE_CSV_HEADER);
     s.push_str(if sqrt { ",sqrt_T\n" } else { "\n" });
     let n_d = grid.distances_km.len();
@@ -174,11 +160,7 @@ pub fn write_transmittance_exr(
     }
     channels.push(Channel {
         name: "blocked".into(),
-        samples: table
-            .blocked
-            .iter()
-            .map(|&b| f32::from(u8::from(b)))
-            .collect(),
+        samples: table.blocked.iter().map(|&b| f32::from(u8::from(b))).collect(),
     });
     write_exr(
         path,

@@ -123,19 +123,13 @@ mod tests {
         // Huggins band at 320 nm, 1e-20 scale, stronger when warm.
         let warm = bogumil().sigma_cm2(320.0, 293.0).unwrap();
         let cold = bogumil().sigma_cm2(320.0, 223.0).unwrap();
-        assert!(
-            warm > cold && warm > 1e-20 && warm < 5e-20,
-            "{warm:e} {cold:e}"
-        );
+        assert!(warm > cold && warm > 1e-20 && warm < 5e-20, "{warm:e} {cold:e}");
     }
 
     #[test]
     fn interpolates_linearly_between_nodes_and_refuses_outside() {
         let x = bogumil();
-        let (a, b) = (
-            x.sigma_cm2(540.0, 230.0).unwrap(),
-            x.sigma_cm2(540.1, 230.0).unwrap(),
-        );
+        let (a, b) = (x.sigma_cm2(540.0, 230.0).unwrap(), x.sigma_cm2(540.1, 230.0).unwrap());
         let mid = x.sigma_cm2(540.05, 230.0).unwrap();
         assert!((mid - 0.5 * (a + b)).abs() < 1e-12 * a.abs());
         assert_eq!(x.sigma_cm2(200.0, 230.0), None);

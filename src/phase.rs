@@ -74,9 +74,7 @@ impl PhaseFunction {
     /// The 4×4 phase matrix in the scattering-plane frame.
     pub fn mueller(&self, cos_theta: f64) -> Mueller {
         match *self {
-            PhaseFunction::Rayleigh {
-                depolarization: rho,
-            } => {
+            PhaseFunction::Rayleigh { depolarization: rho } => {
                 let d = rayleigh_anisotropic_weight(rho);
                 let mu2 = cos_theta * cos_theta;
                 let p11 = self.p11(cos_theta);
@@ -227,9 +225,7 @@ mod tests {
     /// Exact CDF of `μ = cos Θ`, written independently of the sampler.
     fn exact_cdf(phase: &PhaseFunction, mu: f64) -> f64 {
         match *phase {
-            PhaseFunction::Rayleigh {
-                depolarization: rho,
-            } => {
+            PhaseFunction::Rayleigh { depolarization: rho } => {
                 // ½∫_{−1}^{μ} [D·3/4(1 + x²) + 1 − D] dx.
                 let d = (1.0 - rho) / (1.0 + rho / 2.0);
                 0.5 * (d * 0.75 * (mu + mu.powi(3) / 3.0 + 4.0 / 3.0) + (1.0 - d) * (mu + 1.0))
@@ -247,9 +243,7 @@ mod tests {
     #[test]
     fn normalisation_by_quadrature() {
         for phase in [
-            PhaseFunction::Rayleigh {
-                depolarization: 0.0,
-            },
+            PhaseFunction::Rayleigh { depolarization: 0.0 },
             PhaseFunction::Rayleigh {
                 depolarization: RHO_AIR,
             },
@@ -262,10 +256,7 @@ mod tests {
             let norm = 0.5 * simpson(|mu| phase.p11(mu), 200_000);
             assert!((norm - 1.0).abs() < 1e-9, "{phase:?}: {norm}");
             let solid_angle_norm = 2.0 * PI * simpson(|mu| phase.pdf(mu), 200_000);
-            assert!(
-                (solid_angle_norm - 1.0).abs() < 1e-9,
-                "{phase:?}: {solid_angle_norm}"
-            );
+            assert!((solid_angle_norm - 1.0).abs() < 1e-9, "{phase:?}: {solid_angle_norm}");
         }
     }
 
@@ -275,9 +266,7 @@ mod tests {
         // P = 3/(4(1 + 2γ))·[(1 + 3γ) + (1 − γ)μ², −(1 − γ)(1 − μ²),
         //     (1 − γ)(1 + μ²), 2(1 − γ)μ, 2(1 − 3γ)μ].
         for rho in [0.0, 0.028, RHO_AIR, 0.1] {
-            let phase = PhaseFunction::Rayleigh {
-                depolarization: rho,
-            };
+            let phase = PhaseFunction::Rayleigh { depolarization: rho };
             let gamma = rho / (2.0 - rho);
             let c = 3.0 / (4.0 * (1.0 + 2.0 * gamma));
             for deg in [0.0, 10.0, 45.0, 90.0, 120.0, 170.0, 180.0] {
@@ -312,10 +301,7 @@ mod tests {
             assert!((-m.0[0][1] / m.0[0][0] - (1.0 - rho) / (1.0 + rho)).abs() < 1e-14);
         }
         // Pure Rayleigh at 90°: P11 = 3/4 and P12 = −3/4 (E ⟂ scattering plane).
-        let m = PhaseFunction::Rayleigh {
-            depolarization: 0.0,
-        }
-        .mueller(0.0);
+        let m = PhaseFunction::Rayleigh { depolarization: 0.0 }.mueller(0.0);
         assert!((m.0[0][0] - 0.75).abs() < 1e-15 && (m.0[1][0] + 0.75).abs() < 1e-15);
     }
 
@@ -359,23 +345,15 @@ mod tests {
         for (n, phase) in all_test_phase_functions().iter().enumerate() {
             let (mean, sigma) = mc_mean(phase, |mu| mu, 200_000, 100 + n as u64);
             let exact = phase.mean_cosine();
-            assert!(
-                (mean - exact).abs() < 4.0 * sigma,
-                "{phase:?}: {mean} ± {sigma}"
-            );
+            assert!((mean - exact).abs() < 4.0 * sigma, "{phase:?}: {mean} ± {sigma}");
         }
         // Rayleigh second moment: ⟨μ²⟩ = 2D/5 + (1 − D)/3.
         for rho in [0.0, RHO_AIR, 0.1] {
-            let phase = PhaseFunction::Rayleigh {
-                depolarization: rho,
-            };
+            let phase = PhaseFunction::Rayleigh { depolarization: rho };
             let d = (1.0 - rho) / (1.0 + rho / 2.0);
             let exact = 0.4 * d + (1.0 - d) / 3.0;
             let (mean, sigma) = mc_mean(&phase, |mu| mu * mu, 200_000, 7);
-            assert!(
-                (mean - exact).abs() < 4.0 * sigma,
-                "rho {rho}: {mean} ± {sigma}"
-            );
+            assert!((mean - exact).abs() < 4.0 * sigma, "rho {rho}: {mean} ± {sigma}");
         }
     }
 
@@ -384,12 +362,8 @@ mod tests {
         const BINS: usize = 50;
         const SAMPLES: usize = 200_000;
         for (n, phase) in [
-            PhaseFunction::Rayleigh {
-                depolarization: 0.0,
-            },
-            PhaseFunction::Rayleigh {
-                depolarization: 0.1,
-            },
+            PhaseFunction::Rayleigh { depolarization: 0.0 },
+            PhaseFunction::Rayleigh { depolarization: 0.1 },
             PhaseFunction::HenyeyGreenstein { g: 0.0 },
             PhaseFunction::HenyeyGreenstein { g: 0.75 },
             PhaseFunction::HenyeyGreenstein { g: -0.5 },
@@ -407,8 +381,7 @@ mod tests {
             let edge = |i: usize| -1.0 + 2.0 * i as f64 / BINS as f64;
             let chi2: f64 = (0..BINS)
                 .map(|i| {
-                    let expected = SAMPLES as f64
-                        * (exact_cdf(phase, edge(i + 1)) - exact_cdf(phase, edge(i)));
+                    let expected = SAMPLES as f64 * (exact_cdf(phase, edge(i + 1)) - exact_cdf(phase, edge(i)));
                     assert!(expected >= 5.0, "{phase:?}: bin {i} expects {expected}");
                     (counts[i] as f64 - expected).powi(2) / expected
                 })
@@ -447,12 +420,7 @@ mod tests {
     #[test]
     fn orthonormal_basis_is_right_handed() {
         let mut rng = Pcg64Mcg::seed_from_u64(9);
-        let mut dirs = vec![
-            DVec3::Z,
-            -DVec3::Z,
-            DVec3::X,
-            DVec3::new(0.0, 1e-12, -1.0).normalize(),
-        ];
+        let mut dirs = vec![DVec3::Z, -DVec3::Z, DVec3::X, DVec3::new(0.0, 1e-12, -1.0).normalize()];
         for _ in 0..1000 {
             let z: f64 = 2.0 * rng.random::<f64>() - 1.0;
             let phi = 2.0 * PI * rng.random::<f64>();

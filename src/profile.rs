@@ -9,9 +9,7 @@
 //! rules, and they make a layer cut at any altitude (the top of the model
 //! atmosphere) consistent with the uncut one.
 
-use crate::constants::{
-    BOLTZMANN_J_PER_K, CM_PER_KM, GOFF_GRATCH_STEAM_POINT_K, GOFF_GRATCH_STEAM_PRESSURE_HPA,
-};
+use crate::constants::{BOLTZMANN_J_PER_K, CM_PER_KM, GOFF_GRATCH_STEAM_POINT_K, GOFF_GRATCH_STEAM_PRESSURE_HPA};
 use crate::data::{self, Table};
 use crate::error::{Error, Result};
 
@@ -79,14 +77,8 @@ impl GasProfile {
                     ),
                 ));
             }
-            if [l.n_o3, l.n_o2, l.n_h2o, l.n_co2, l.n_no2]
-                .iter()
-                .any(|&n| n < 0.0)
-            {
-                return Err(Error::data(
-                    name,
-                    format!("level {} km: negative density", l.z_km),
-                ));
+            if [l.n_o3, l.n_o2, l.n_h2o, l.n_co2, l.n_no2].iter().any(|&n| n < 0.0) {
+                return Err(Error::data(name, format!("level {} km: negative density", l.z_km)));
             }
         }
         Ok(GasProfile {
@@ -115,21 +107,12 @@ impl GasProfile {
     /// layer rules (air density and pressure logarithmic, mixing ratios and
     /// temperature linear). `top_km` must lie inside the profile.
     pub fn truncated(&self, top_km: f64) -> GasProfile {
-        let mut levels: Vec<Level> = self
-            .levels
-            .iter()
-            .copied()
-            .take_while(|l| l.z_km < top_km)
-            .collect();
+        let mut levels: Vec<Level> = self.levels.iter().copied().take_while(|l| l.z_km < top_km).collect();
         let i = levels.len();
         if let Some(&exact) = self.levels.get(i).filter(|l| l.z_km == top_km) {
             levels.push(exact);
         } else if i > 0 && i < self.levels.len() {
-            levels.push(interpolate_level(
-                &self.levels[i - 1],
-                &self.levels[i],
-                top_km,
-            ));
+            levels.push(interpolate_level(&self.levels[i - 1], &self.levels[i], top_km));
         }
         GasProfile {
             name: self.name.clone(),
@@ -164,10 +147,7 @@ impl GasProfile {
 
     /// Total ozone column in Dobson units.
     pub fn o3_column_du(&self) -> f64 {
-        (0..self.layer_count())
-            .map(|i| self.o3_column_cm2(i))
-            .sum::<f64>()
-            / crate::constants::DOBSON_UNIT_CM2
+        (0..self.layer_count()).map(|i| self.o3_column_cm2(i)).sum::<f64>() / crate::constants::DOBSON_UNIT_CM2
     }
 
     /// Mean temperature of layer `i` (K): the mean of its two levels.
@@ -332,12 +312,7 @@ mod tests {
         for row in t.rows.iter().filter(|r| r[1] - r[0] == 1.0) {
             let i = p.levels.iter().position(|l| l.z_km == row[0]).unwrap();
             let rh = p.layer_relative_humidity_pct(i);
-            assert!(
-                (rh - row[2]).abs() < 0.2,
-                "layer {}: {rh} vs {}",
-                row[0],
-                row[2]
-            );
+            assert!((rh - row[2]).abs() < 0.2, "layer {}: {rh} vs {}", row[0], row[2]);
         }
     }
 }

@@ -58,8 +58,7 @@ pub fn cross_section_cm2(lambda_nm: f64, co2_ratio: f64) -> f64 {
     let n2 = n * n;
     let lambda_cm = lambda_nm * 1.0e-7;
     let ns = AIR_DENSITY_STP_CM3;
-    24.0 * std::f64::consts::PI.powi(3) * (n2 - 1.0).powi(2)
-        / (lambda_cm.powi(4) * ns * ns * (n2 + 2.0).powi(2))
+    24.0 * std::f64::consts::PI.powi(3) * (n2 - 1.0).powi(2) / (lambda_cm.powi(4) * ns * ns * (n2 + 2.0).powi(2))
         * king_factor(lambda_nm, co2_ratio)
 }
 
@@ -81,8 +80,7 @@ mod tests {
     /// 360 ppm CO₂ (σ in cm², λ in µm), an independent check of the chain.
     fn bodhaine_fit_360ppm(lambda_um: f64) -> f64 {
         let l2 = lambda_um * lambda_um;
-        1.0e-28 * (1.0455996 - 341.29061 / l2 - 0.90230850 * l2)
-            / (1.0 + 0.0027059889 / l2 - 85.968563 * l2)
+        1.0e-28 * (1.0455996 - 341.29061 / l2 - 0.90230850 * l2) / (1.0 + 0.0027059889 / l2 - 85.968563 * l2)
     }
 
     #[test]
@@ -91,10 +89,7 @@ mod tests {
         for lambda in [250.0, 320.0, 400.0, 450.0, 550.0, 650.0, 760.0, 850.0] {
             let s = cross_section_cm2(lambda, 3.6e-4);
             let fit = bodhaine_fit_360ppm(lambda / 1000.0);
-            assert!(
-                (s / fit - 1.0).abs() < 1e-4,
-                "{lambda} nm: {s:e} vs {fit:e}"
-            );
+            assert!((s / fit - 1.0).abs() < 1e-4, "{lambda} nm: {s:e} vs {fit:e}");
         }
     }
 

@@ -138,13 +138,7 @@ pub struct Fluxes {
 /// Irradiances at the observer: E = π·⟨I⟩ over cosine-distributed viewing
 /// directions in each hemisphere; the direct beam from the exact
 /// transmittance along the sun's direction.
-pub fn render_fluxes(
-    scene: &Scene,
-    altitude_km: f64,
-    samples: u64,
-    seed: u64,
-    wavelength_index: u64,
-) -> Fluxes {
+pub fn render_fluxes(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, wavelength_index: u64) -> Fluxes {
     let hemisphere = |key: u64, sign: f64| {
         tally(samples, [seed, wavelength_index, key], |s| {
             let u = s.next2();
@@ -163,15 +157,7 @@ pub fn render_fluxes(
     let mu0 = s.dot(scene.geometry.up(origin));
     let e_dir = match tracking::layer_at(scene.medium.levels_km(), altitude_km, mu0) {
         Some(layer) if mu0 > 0.0 => {
-            mu0 * tracking::analytic_transmittance(
-                &scene.medium,
-                &scene.geometry,
-                &Ray {
-                    origin,
-                    dir: s,
-                    layer,
-                },
-            )
+            mu0 * tracking::analytic_transmittance(&scene.medium, &scene.geometry, &Ray { origin, dir: s, layer })
         }
         None if mu0 > 0.0 => mu0,
         _ => 0.0,
@@ -193,53 +179,50 @@ pub struct RenderResult {
     pub fluxes: Vec<crate::output::FluxRow>,
 }
 
-/// Renders every wavelength of one task of a job (in the current rayon
-/// pool), calling `log` with a line per wavelength.
-pub fn render_task(
-    job: &crate::job::Job,
-    task: &crate::job::Task,
-    log: &dyn Fn(&str),
-) -> RenderResult {
+/// The stream key of (task, albedo, wavelength): independent streams for
+/// every render of a job.
+pub fn stream_key(task: usize, albedo: usize, wavelength: usize) -> u64 {
+    ((task as u64) << 32) | ((albedo as u64) << 16) | wavelength as u64
+}
+
+/// Renders a `directions` sensor for every albedo and wavelength of one
+/// task (in the current rayon pool), calling `log` with a line per render.
+pub fn render_task(job: &crate::job::Job, task: &crate::job::Task, log: &dyn Fn(&str)) -> RenderResult {
     let spec = &job.render;
+    let directions = spec.directions();
     let altitude_km = task.observer_altitude_km;
     let mut result = RenderResult::default();
-    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-        let start = std::time::Instant::now();
-        let scene = job.scene_for(&task.atmosphere, w);
-        // Streams per task: the task index joins the wavelength key.
-        let key = ((task.index as u64) << 32) | w as u64;
-        let tallies = render_directions(
-            &scene,
-            altitude_km,
-            &spec.directions,
-            spec.samples,
-            spec.seed,
-            key,
-        );
-        for (direction, tally) in spec.directions.iter().zip(tallies) {
-            result.radiance.push(crate::output::RadianceRow {
-                wavelength_nm,
-                albedo: spec.albedo,
-                direction: *direction,
-                tally,
-            });
+    for (a, &albedo) in spec.albedos.iter().enumerate() {
+        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+            let start = std::time::Instant::now();
+            let scene = job.scene_for(task, w, albedo);
+            let key = stream_key(task.index, a, w);
+            let tallies = render_directions(&scene, altitude_km, directions, spec.samples, spec.seed, key);
+            for (direction, tally) in directions.iter().zip(tallies) {
+                result.radiance.push(crate::output::RadianceRow {
+                    wavelength_nm,
+                    albedo,
+                    direction: *direction,
+                    tally,
+                });
+            }
+            if spec.fluxes {
+                result.fluxes.push(crate::output::FluxRow {
+                    wavelength_nm,
+                    albedo,
+                    altitude_km,
+                    fluxes: render_fluxes(&scene, altitude_km, spec.samples, spec.seed, key),
+                });
+            }
+            let paths = spec.samples * (directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
+            let secs = start.elapsed().as_secs_f64();
+            log(&format!(
+                "{}: {wavelength_nm} nm, albedo {albedo}: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+                task.name,
+                paths as f64 / secs,
+                rayon::current_num_threads()
+            ));
         }
-        if spec.fluxes {
-            result.fluxes.push(crate::output::FluxRow {
-                wavelength_nm,
-                albedo: spec.albedo,
-                altitude_km,
-                fluxes: render_fluxes(&scene, altitude_km, spec.samples, spec.seed, key),
-            });
-        }
-        let paths = spec.samples * (spec.directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
-        let secs = start.elapsed().as_secs_f64();
-        log(&format!(
-            "{}: {wavelength_nm} nm: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
-            task.name,
-            paths as f64 / secs,
-            rayon::current_num_threads()
-        ));
     }
     result
 }

@@ -59,10 +59,7 @@ mod tests {
         };
         assert_eq!(draw(&[1, 2, 3]), draw(&[1, 2, 3]));
         assert_ne!(draw(&[1, 2, 3]), draw(&[1, 2, 4]));
-        assert_ne!(
-            Sampler::new(&[0, 1]).next_f64(),
-            Sampler::new(&[1, 0]).next_f64()
-        );
+        assert_ne!(Sampler::new(&[0, 1]).next_f64(), Sampler::new(&[1, 0]).next_f64());
     }
 
     #[test]

@@ -161,10 +161,7 @@ pub fn next_boundary(
                 return Some(ShellCrossing { t, boundary: layer });
             }
             let t = exit_distance(origin, dir, radius_km + z_hi);
-            Some(ShellCrossing {
-                t,
-                boundary: layer + 1,
-            })
+            Some(ShellCrossing { t, boundary: layer + 1 })
         }
         Geometry::PlaneParallel => {
             let (z_target, boundary) = if dir.z > 0.0 {
@@ -219,16 +216,10 @@ mod tests {
         // From the centre.
         assert_eq!(ray_sphere(DVec3::ZERO, DVec3::X, R), Some((-R, R)));
         // Passing 10 km outside.
-        assert_eq!(
-            ray_sphere(DVec3::new(0.0, R + 10.0, -5000.0), DVec3::Z, R),
-            None
-        );
+        assert_eq!(ray_sphere(DVec3::new(0.0, R + 10.0, -5000.0), DVec3::Z, R), None);
         // Exactly tangent at (0, R, 0).
         let (t0, t1) = ray_sphere(DVec3::new(0.0, R, -5000.0), DVec3::Z, R).unwrap();
-        assert!(
-            close(t0, 5000.0, 1e-15) && close(t1, 5000.0, 1e-15),
-            "{t0} {t1}"
-        );
+        assert!(close(t0, 5000.0, 1e-15) && close(t1, 5000.0, 1e-15), "{t0} {t1}");
         // Passing 1 mm inside: chord 2√((R − h)(R + h)).
         // (R − h is exact in f64 by Sterbenz's lemma, h being the rounded R − 1e-6.)
         let h = R - 1e-6;
@@ -246,13 +237,7 @@ mod tests {
     #[test]
     fn horizontal_ray_hits_outer_sphere_at_exact_distance() {
         // From altitude h horizontally: t = √((R + H)² − (R + h)²) = √((H − h)(2R + H + h)).
-        let cases = [
-            (0.0, 100.0),
-            (0.0, 0.001),
-            (5.0, 5.000001),
-            (12.5, 60.0),
-            (99.0, 100.0),
-        ];
+        let cases = [(0.0, 100.0), (0.0, 0.001), (5.0, 5.000001), (12.5, 60.0), (99.0, 100.0)];
         // Axis-aligned origin and direction: the inputs are exactly the f64
         // values `r_in = R + h` and `r_out = R + H`, and for them
         // t = √((r_out − r_in)(r_out + r_in)) with an exact difference
@@ -307,14 +292,7 @@ mod tests {
         let levels = [0.0, 2.0, 10.0];
         let geometry = Geometry::Spherical { radius_km: R };
         // Straight down from 1.5 km.
-        let c = next_boundary(
-            &geometry,
-            &levels,
-            DVec3::new(0.0, 0.0, R + 1.5),
-            -DVec3::Z,
-            0,
-        )
-        .unwrap();
+        let c = next_boundary(&geometry, &levels, DVec3::new(0.0, 0.0, R + 1.5), -DVec3::Z, 0).unwrap();
         assert_eq!(c.boundary, 0);
         assert!(close(c.t, 1.5, 1e-12));
         // Slanted: origin at altitude h, direction at depression angle δ below
@@ -372,8 +350,7 @@ mod tests {
             // Slanted up at elevation ε: t = √((R+20)² − (R+10)²cos²ε) − (R+10) sin ε.
             let eps: f64 = 0.05 + 1.4 * rng.random::<f64>();
             let dir = eps.cos() * horizontal(n, rng.random::<f64>() * 2.0 * PI) + eps.sin() * n;
-            let exact = ((R + 20.0f64).powi(2) - ((R + 10.0) * eps.cos()).powi(2)).sqrt()
-                - (R + 10.0) * eps.sin();
+            let exact = ((R + 20.0f64).powi(2) - ((R + 10.0) * eps.cos()).powi(2)).sqrt() - (R + 10.0) * eps.sin();
             let c = next_boundary(&geometry, &levels, on_10km, dir, 2).unwrap();
             assert_eq!(c.boundary, 3);
             assert!(close(c.t, exact, 1e-9), "{} vs {exact}", c.t);
@@ -392,13 +369,7 @@ mod tests {
             // for that boundary, not a path through the planet.
             let inside = on_10km * (1.0 - 4.0 * f64::EPSILON);
             let c = next_boundary(&geometry, &levels, inside, -n, 2).unwrap();
-            assert_eq!(
-                c,
-                ShellCrossing {
-                    t: 0.0,
-                    boundary: 2
-                }
-            );
+            assert_eq!(c, ShellCrossing { t: 0.0, boundary: 2 });
         }
     }
 
@@ -465,13 +436,7 @@ mod tests {
         steps: usize,
     }
 
-    fn walk(
-        geometry: &Geometry,
-        levels: &[f64],
-        origin: DVec3,
-        dir: DVec3,
-        mut layer: usize,
-    ) -> Walk {
+    fn walk(geometry: &Geometry, levels: &[f64], origin: DVec3, dir: DVec3, mut layer: usize) -> Walk {
         let top = levels.len() - 1;
         let (mut p, mut total, mut steps, mut lowest) = (origin, 0.0, 0, layer);
         loop {
@@ -491,20 +456,14 @@ mod tests {
                     steps,
                 };
             }
-            layer = if c.boundary == layer + 1 {
-                layer + 1
-            } else {
-                layer - 1
-            };
+            layer = if c.boundary == layer + 1 { layer + 1 } else { layer - 1 };
         }
     }
 
     #[test]
     fn walk_through_fifty_levels_sums_to_the_chord() {
         // 50 levels, finer near the ground, 0 to 100 km.
-        let levels: Vec<f64> = (0..50)
-            .map(|i| 100.0 * (i as f64 / 49.0).powf(1.5))
-            .collect();
+        let levels: Vec<f64> = (0..50).map(|i| 100.0 * (i as f64 / 49.0).powf(1.5)).collect();
         let geometry = Geometry::Spherical { radius_km: R };
         let top = R + 100.0;
         let mut rng = Pcg64Mcg::seed_from_u64(77);
@@ -514,9 +473,7 @@ mod tests {
             // Up from the ground at an elevation in (0°, 90°]: crosses all 49 layers.
             let elev = 0.5 * PI * (1.0 - rng.random::<f64>());
             let dir = elev.cos() * flat + elev.sin() * n;
-            let Walk {
-                total, exit, steps, ..
-            } = walk(&geometry, &levels, R * n, dir, 0);
+            let Walk { total, exit, steps, .. } = walk(&geometry, &levels, R * n, dir, 0);
             let (_, chord) = ray_sphere(R * n, dir, top).unwrap();
             assert_eq!((exit, steps), (49, 49));
             assert!(close(total, chord, 1e-10), "{total} vs {chord}");
@@ -547,9 +504,7 @@ mod tests {
     fn walk_with_limb_rays_near_tangent_to_a_level() {
         // Rays whose lowest point lies just above or below a level: they
         // descend, graze or enter the shell below, and rise out of the top.
-        let levels: Vec<f64> = (0..50)
-            .map(|i| 100.0 * (i as f64 / 49.0).powf(1.5))
-            .collect();
+        let levels: Vec<f64> = (0..50).map(|i| 100.0 * (i as f64 / 49.0).powf(1.5)).collect();
         let geometry = Geometry::Spherical { radius_km: R };
         let mut rng = Pcg64Mcg::seed_from_u64(8);
         for k in 1..49 {
@@ -561,10 +516,7 @@ mod tests {
                 let back = ((100.0 - h_tan) * (2.0 * R + 100.0 + h_tan)).sqrt();
                 let origin = (R + h_tan) * n - back * dir;
                 let Walk {
-                    total,
-                    exit,
-                    lowest,
-                    ..
+                    total, exit, lowest, ..
                 } = walk(&geometry, &levels, origin, dir, 48);
                 assert_eq!(exit, 49);
                 // Resolved dips reach the layer below the level, clear

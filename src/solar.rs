@@ -36,12 +36,7 @@ impl SolarSpectrum {
             return self.irradiance(lo_nm);
         }
         let mut xs = vec![lo_nm];
-        xs.extend(
-            self.wavelengths_nm
-                .iter()
-                .copied()
-                .filter(|&x| x > lo_nm && x < hi_nm),
-        );
+        xs.extend(self.wavelengths_nm.iter().copied().filter(|&x| x > lo_nm && x < hi_nm));
         xs.push(hi_nm);
         let mut sum = 0.0;
         for w in xs.windows(2) {

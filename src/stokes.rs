@@ -336,12 +336,7 @@ impl StokesRotation {
     /// `R · s` for a Stokes vector.
     pub fn apply(&self, s: Stokes) -> Stokes {
         let (c, n) = (self.cos_2psi, self.sin_2psi);
-        Stokes([
-            s.0[0],
-            c * s.0[1] + n * s.0[2],
-            -n * s.0[1] + c * s.0[2],
-            s.0[3],
-        ])
+        Stokes([s.0[0], c * s.0[1] + n * s.0[2], -n * s.0[1] + c * s.0[2], s.0[3]])
     }
 
     /// `m · R` without the full product (R mixes columns 1 and 2 only).
@@ -377,8 +372,7 @@ mod tests {
             )
             .normalize();
             let (a, _) = crate::phase::orthonormal_basis(k);
-            let b = (a * (rng.random::<f64>() - 0.5) + k.cross(a) * (rng.random::<f64>() - 0.5))
-                .normalize();
+            let b = (a * (rng.random::<f64>() - 0.5) + k.cross(a) * (rng.random::<f64>() - 0.5)).normalize();
             let fast = StokesRotation::between(a, b, k);
             let slow = Mueller::rotation(rotation_angle(a, b, k));
             let m = fast.mueller();
@@ -406,20 +400,14 @@ mod tests {
 
     fn assert_stokes_close(a: Stokes, b: Stokes, tol: f64) {
         for n in 0..4 {
-            assert!(
-                (a.0[n] - b.0[n]).abs() < tol,
-                "{a:?} != {b:?} (element {n})"
-            );
+            assert!((a.0[n] - b.0[n]).abs() < tol, "{a:?} != {b:?} (element {n})");
         }
     }
 
     fn assert_mueller_close(a: Mueller, b: Mueller, tol: f64) {
         for r in 0..4 {
             for c in 0..4 {
-                assert!(
-                    (a.0[r][c] - b.0[r][c]).abs() < tol,
-                    "{a:?} != {b:?} at [{r}][{c}]"
-                );
+                assert!((a.0[r][c] - b.0[r][c]).abs() < tol, "{a:?} != {b:?} at [{r}][{c}]");
             }
         }
     }
@@ -514,9 +502,7 @@ mod tests {
         // A polariser at θ equals: change to the frame whose e1 is its axis,
         // apply the polariser at 0, change back.
         for theta in [-1.2, -0.3, 0.2, 0.7, 2.5] {
-            let built = Mueller::rotation(-theta)
-                * Mueller::linear_polarizer(0.0)
-                * Mueller::rotation(theta);
+            let built = Mueller::rotation(-theta) * Mueller::linear_polarizer(0.0) * Mueller::rotation(theta);
             assert_mueller_close(built, Mueller::linear_polarizer(theta), TOL);
         }
         // Axis at 45°, i.e. along (e1 + e2)/√2, passes pure +U.
@@ -563,10 +549,7 @@ mod tests {
             let s_to = stokes_from_field(a, b, i_unpol, e1_to, k);
             let psi = rotation_angle(e1_from, e1_to, k);
             assert_stokes_close(Mueller::rotation(psi) * s_from, s_to, 1e-12);
-            assert!(
-                (psi + rotation_angle(e1_to, e1_from, k)).abs() < 1e-12
-                    || (psi.abs() - PI).abs() < 1e-9
-            );
+            assert!((psi + rotation_angle(e1_to, e1_from, k)).abs() < 1e-12 || (psi.abs() - PI).abs() < 1e-9);
         }
     }
 
@@ -576,22 +559,14 @@ mod tests {
         for _ in 0..1000 {
             let theta = PI * rng.random::<f64>();
             let phi = 2.0 * PI * rng.random::<f64>();
-            let v = DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.sin() * phi.sin(),
-                theta.cos(),
-            );
+            let v = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
             let (e1, e2) = meridian_frame(v, 0.0);
             let k = -v;
             assert!((e1.length() - 1.0).abs() < TOL && (e2.length() - 1.0).abs() < TOL);
             assert!(e1.dot(e2).abs() < TOL && e1.dot(v).abs() < TOL && e2.dot(v).abs() < TOL);
             assert!((e1.cross(e2) - k).length() < 1e-12);
             // e1 = ∂v/∂θ and e2 as written in CONVENTIONS.md.
-            let e1_expected = DVec3::new(
-                theta.cos() * phi.cos(),
-                theta.cos() * phi.sin(),
-                -theta.sin(),
-            );
+            let e1_expected = DVec3::new(theta.cos() * phi.cos(), theta.cos() * phi.sin(), -theta.sin());
             let e2_expected = DVec3::new(phi.sin(), -phi.cos(), 0.0);
             assert!((e1 - e1_expected).length() < 1e-12);
             assert!((e2 - e2_expected).length() < 1e-12);
@@ -616,11 +591,7 @@ mod tests {
 
             // The fallback is the limit θ → 0 along the azimuth φ.
             let theta: f64 = 1e-9;
-            let v = DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.sin() * phi.sin(),
-                theta.cos(),
-            );
+            let v = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
             let (e1_near, e2_near) = meridian_frame(v, phi + 1.0);
             let (e1_zen, e2_zen) = meridian_frame(DVec3::Z, phi);
             assert!((e1_near - e1_zen).length() < 1e-8 && (e2_near - e2_zen).length() < 1e-8);

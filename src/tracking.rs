@@ -54,12 +54,7 @@ pub enum WalkEnd {
 
 /// Walks the layer segments of `ray` in order, calling `f` for each until it
 /// returns `Break` or the ray reaches the ground or the top.
-pub fn walk(
-    geometry: &Geometry,
-    levels_km: &[f64],
-    ray: &Ray,
-    f: impl FnMut(Segment) -> ControlFlow<()>,
-) -> WalkEnd {
+pub fn walk(geometry: &Geometry, levels_km: &[f64], ray: &Ray, f: impl FnMut(Segment) -> ControlFlow<()>) -> WalkEnd {
     match *geometry {
         Geometry::Spherical { radius_km } => walk_spherical(radius_km, levels_km, ray, f),
         Geometry::PlaneParallel => walk_stepwise(geometry, levels_km, ray, f),
@@ -242,12 +237,7 @@ pub fn sample_t_maj(
 
 /// Delta tracking: the next real collision along `ray`, or where the ray
 /// leaves the atmosphere.
-pub fn delta_track(
-    medium: &Medium,
-    geometry: &Geometry,
-    ray: &Ray,
-    sampler: &mut Sampler,
-) -> FlightEnd {
+pub fn delta_track(medium: &Medium, geometry: &Geometry, ray: &Ray, sampler: &mut Sampler) -> FlightEnd {
     sample_t_maj(medium, geometry, ray, sampler, |c, s| {
         if medium.is_exact_majorant(c.layer) {
             return false;
@@ -373,12 +363,7 @@ pub fn forced_distance(u: f64, p: f64) -> f64 {
 
 /// Ratio-tracking estimate of the transmittance from the ray's origin to
 /// where it leaves through the top (0 if it hits the ground).
-pub fn ratio_tracking_transmittance(
-    medium: &Medium,
-    geometry: &Geometry,
-    ray: &Ray,
-    sampler: &mut Sampler,
-) -> f64 {
+pub fn ratio_tracking_transmittance(medium: &Medium, geometry: &Geometry, ray: &Ray, sampler: &mut Sampler) -> f64 {
     let mut tr = 1.0;
     let end = sample_t_maj(medium, geometry, ray, sampler, |c, _| {
         let z = geometry.altitude(ray.origin + c.t * ray.dir);
@@ -403,8 +388,7 @@ pub fn optical_depth(medium: &Medium, geometry: &Geometry, ray: &Ray) -> (f64, W
                 tau
             };
         } else {
-            tau += medium
-                .segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, seg.t1);
+            tau += medium.segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, seg.t1);
         }
         ControlFlow::Continue(())
     });
@@ -428,11 +412,7 @@ pub fn analytic_transmittance(medium: &Medium, geometry: &Geometry, ray: &Ray) -
 pub fn layer_at(levels_km: &[f64], z_km: f64, up_dot: f64) -> Option<usize> {
     let n = levels_km.len();
     let top = levels_km[n - 1];
-    if z_km < levels_km[0]
-        || z_km > top
-        || (z_km == top && up_dot >= 0.0)
-        || (z_km == levels_km[0] && up_dot < 0.0)
-    {
+    if z_km < levels_km[0] || z_km > top || (z_km == top && up_dot >= 0.0) || (z_km == levels_km[0] && up_dot < 0.0) {
         return None;
     }
     let i = levels_km.partition_point(|&l| l <= z_km); // first level above z
@@ -510,10 +490,7 @@ mod tests {
                 | (WalkEnd::Ground { t: x }, WalkEnd::Ground { t: y }) => (x, y),
                 other => panic!("z {z} cos {cos_t}: ends differ {other:?}"),
             };
-            assert!(
-                (ta - tb).abs() < 1e-9 * ta.max(1.0),
-                "z {z} cos {cos_t}: {ta} vs {tb}"
-            );
+            assert!((ta - tb).abs() < 1e-9 * ta.max(1.0), "z {z} cos {cos_t}: {ta} vs {tb}");
             // Limb rays may differ by vanishing slivers at a tangent shell.
             let long_a: Vec<_> = a.iter().filter(|g| g.t1 - g.t0 > 1e-6).collect();
             let long_b: Vec<_> = b.iter().filter(|g| g.t1 - g.t0 > 1e-6).collect();
@@ -570,11 +547,7 @@ mod tests {
             n += 1;
         }
         let m = s / n as f64;
-        (
-            m,
-            ((s2 / n as f64 - m * m).max(0.0) / (n as f64 - 1.0)).sqrt(),
-            n,
-        )
+        (m, ((s2 / n as f64 - m * m).max(0.0) / (n as f64 - 1.0)).sqrt(), n)
     }
 
     #[test]
@@ -645,10 +618,7 @@ mod tests {
                 FlightEnd::Collided(c) if c.t > dist => f.weight,
                 _ => 0.0,
             }));
-            assert!(
-                (mean - exact).abs() < 4.0 * se,
-                "{dist} km: {mean} ± {se} vs {exact}"
-            );
+            assert!((mean - exact).abs() < 4.0 * se, "{dist} km: {mean} ± {se} vs {exact}");
         }
         // Looking down at a reflecting ground the flight is analog.
         let down = Ray {

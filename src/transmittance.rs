@@ -65,9 +65,7 @@ impl Grid {
         let node = |i: usize, n: usize, p: i32| (i as f64 / (n - 1) as f64).powi(p);
         Grid {
             altitudes_km: (0..n_a).map(|i| top_km * node(i, n_a, 3)).collect(),
-            distances_km: (0..n_d)
-                .map(|j| max_distance_km * node(j, n_d, 4))
-                .collect(),
+            distances_km: (0..n_d).map(|j| max_distance_km * node(j, n_d, 4)).collect(),
             definition: format!(
                 "a_i = {top_km}*(i/{})^3 km, i = 0..{}; d_j = {max_distance_km}*(j/{})^4 km, j = 0..{}",
                 n_a - 1,
@@ -122,13 +120,7 @@ pub fn point_position(geometry: &Geometry, a_km: f64, d_km: f64) -> DVec3 {
 }
 
 /// The line of sight from an observer at `observer_km` to (a, d).
-pub fn line_of_sight(
-    geometry: &Geometry,
-    levels_km: &[f64],
-    observer_km: f64,
-    a_km: f64,
-    d_km: f64,
-) -> Sight {
+pub fn line_of_sight(geometry: &Geometry, levels_km: &[f64], observer_km: f64, a_km: f64, d_km: f64) -> Sight {
     let o = point_position(geometry, observer_km, 0.0);
     let p = point_position(geometry, a_km, d_km);
     let v = p - o;
@@ -150,11 +142,7 @@ pub fn line_of_sight(
     let up = geometry.up(o).dot(dir);
     match tracking::layer_at(levels_km, observer_km, up) {
         Some(layer) => Sight::Clear {
-            ray: Ray {
-                origin: o,
-                dir,
-                layer,
-            },
+            ray: Ray { origin: o, dir, layer },
             length_km,
         },
         // Observer on the ground looking down (or at the top looking up):
@@ -178,8 +166,7 @@ pub fn optical_depth_to(medium: &Medium, geometry: &Geometry, ray: &Ray, length:
     tracking::walk(geometry, medium.levels_km(), ray, |seg| {
         let t1 = seg.t1.min(length);
         if t1 > seg.t0 {
-            tau +=
-                medium.segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, t1);
+            tau += medium.segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, t1);
         }
         if seg.t1 >= length {
             ControlFlow::Break(())
@@ -240,10 +227,7 @@ pub fn compute(
     let points: Vec<(Vec<f64>, Vec<f64>, bool)> = (0..spec.grid.len())
         .into_par_iter()
         .map(|k| {
-            let (a, d) = (
-                spec.grid.altitudes_km[k / n_d],
-                spec.grid.distances_km[k % n_d],
-            );
+            let (a, d) = (spec.grid.altitudes_km[k / n_d], spec.grid.distances_km[k % n_d]);
             match line_of_sight(geometry, levels, observer_km, a, d) {
                 Sight::AtObserver => (vec![1.0; nw], vec![0.0; nw], false),
                 Sight::Blocked => (vec![0.0; nw], vec![0.0; nw], true),
@@ -260,9 +244,7 @@ pub fn compute(
                         let mut est = vec![0.0; nw];
                         for i in 0..spec.samples {
                             let mut s = Sampler::new(&[seed, task, k as u64, i]);
-                            spectral_ratio_tracking(
-                                &majorant, media, geometry, &ray, length_km, &mut s, &mut est,
-                            );
+                            spectral_ratio_tracking(&majorant, media, geometry, &ray, length_km, &mut s, &mut est);
                             for w in 0..nw {
                                 sum[w] += est[w];
                                 sum_sq[w] += est[w] * est[w];
@@ -271,10 +253,7 @@ pub fn compute(
                         let n = spec.samples as f64;
                         let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
                         let se = (0..nw)
-                            .map(|w| {
-                                ((sum_sq[w] / n - mean[w] * mean[w]).max(0.0) / (n - 1.0).max(1.0))
-                                    .sqrt()
-                            })
+                            .map(|w| ((sum_sq[w] / n - mean[w] * mean[w]).max(0.0) / (n - 1.0).max(1.0)).sqrt())
                             .collect();
                         (mean, se, false)
                     }

@@ -42,8 +42,7 @@ impl GroundExtinction {
         if !v_km.is_finite() || v_km <= 0.0 || self.aerosol_boundary <= 0.0 {
             return None;
         }
-        let s = (KOSCHMIEDER_CONSTANT / v_km - self.rayleigh - self.aerosol_free)
-            / self.aerosol_boundary;
+        let s = (KOSCHMIEDER_CONSTANT / v_km - self.rayleigh - self.aerosol_free) / self.aerosol_boundary;
         (s >= 0.0 && v_km < self.max_visibility_km()).then_some(s)
     }
 }

@@ -23,9 +23,7 @@ fn reference_atmosphere(wavelengths: &str) -> Atmosphere {
          [atmosphere]\nprofile = \"us_standard\"\nozone = \"bogumil\"\naerosol = \"continental_average\"\n\
          [spectrum]\nwavelengths_nm = {wavelengths}\n"
     );
-    Job::parse(&text, "reference.toml", Path::new("."))
-        .unwrap()
-        .atmosphere
+    Job::parse(&text, "reference.toml", Path::new(".")).unwrap().atmosphere
 }
 
 fn table(name: &str, text: &str) -> Table {
@@ -43,22 +41,14 @@ fn close(what: &str, got: f64, want: f64, rel: f64) {
 #[test]
 fn column_optical_depths_match_libradtran_at_420_540_620_nm() {
     let atm = reference_atmosphere("[420.0, 540.0, 620.0]");
-    let refs = table(
-        "columns",
-        include_str!("../validation/libradtran/columns.txt"),
-    );
+    let refs = table("columns", include_str!("../validation/libradtran/columns.txt"));
     for (w, row) in refs.rows.iter().enumerate() {
         assert_eq!(atm.wavelengths_nm[w], row[0]);
         let c = atm.column(w);
         let at = |q: &str| format!("{q} at {} nm", row[0]);
         close(&at("tau_rayleigh"), c.tau_rayleigh, row[1], RAYLEIGH_REL);
         close(&at("tau_ozone"), c.tau_absorption, row[2], OZONE_REL);
-        close(
-            &at("tau_aerosol_ext"),
-            c.tau_aerosol_ext,
-            row[3],
-            AEROSOL_REL,
-        );
+        close(&at("tau_aerosol_ext"), c.tau_aerosol_ext, row[3], AEROSOL_REL);
         close(&at("aerosol ssa"), c.aerosol_ssa(), row[4], SSA_REL);
     }
 }
@@ -67,14 +57,8 @@ fn column_optical_depths_match_libradtran_at_420_540_620_nm() {
 fn every_gas_layer_at_540_nm_matches_libradtran() {
     let atm = reference_atmosphere("[540.0]");
     for (name, text) in [
-        (
-            "A",
-            include_str!("../validation/libradtran/A_540nm_layers.txt"),
-        ),
-        (
-            "B",
-            include_str!("../validation/libradtran/B_540nm_layers.txt"),
-        ),
+        ("A", include_str!("../validation/libradtran/A_540nm_layers.txt")),
+        ("B", include_str!("../validation/libradtran/B_540nm_layers.txt")),
     ] {
         let refs = table(name, text);
         assert_eq!(refs.rows.len(), atm.layer_count(), "{name}: layer count");
@@ -83,12 +67,7 @@ fn every_gas_layer_at_540_nm_matches_libradtran() {
             let o = atm.optics[0][i];
             let dz = atm.thickness_km(i);
             let at = |q: &str| format!("{name} layer {}-{} km {q}", row[0], row[1]);
-            close(
-                &at("tau_rayleigh"),
-                o.sigma_rayleigh * dz,
-                row[2],
-                RAYLEIGH_REL,
-            );
+            close(&at("tau_rayleigh"), o.sigma_rayleigh * dz, row[2], RAYLEIGH_REL);
             close(&at("tau_ozone"), o.sigma_absorption * dz, row[6], OZONE_REL);
         }
     }
@@ -140,9 +119,7 @@ fn unscaled_continental_average_visibility_is_59_km() {
 fn requested_visibility_is_reached_and_scales_only_the_boundary_layer() {
     let base = reference_atmosphere("[550.0]");
     let text = "[planet]\ntop_km = 120.0\n[atmosphere]\nvisibility_km = 20.0\n[spectrum]\nwavelengths_nm = [550.0]\n";
-    let atm = Job::parse(text, "vis.toml", Path::new("."))
-        .unwrap()
-        .atmosphere;
+    let atm = Job::parse(text, "vis.toml", Path::new(".")).unwrap().atmosphere;
     let v = atm.visibility.unwrap();
     close("ground visibility", v.ground_km, 20.0, 1e-12);
     // Ground extinction from the layers themselves: Koschmieder with the
@@ -150,12 +127,7 @@ fn requested_visibility_is_reached_and_scales_only_the_boundary_layer() {
     // (the 0-1 km layer's Rayleigh mean is below the ground value).
     let beta_aer = atm.optics[0][0].sigma_aerosol_ext;
     let beta_aer_base = base.optics[0][0].sigma_aerosol_ext;
-    close(
-        "boundary scale",
-        beta_aer / beta_aer_base,
-        v.boundary_scale,
-        1e-12,
-    );
+    close("boundary scale", beta_aer / beta_aer_base, v.boundary_scale, 1e-12);
     for i in 0..atm.layer_count() {
         let (a, b) = (atm.optics[0][i], base.optics[0][i]);
         if atm.levels_km[i] >= 2.0 {
@@ -171,19 +143,10 @@ fn requested_visibility_is_reached_and_scales_only_the_boundary_layer() {
 #[test]
 fn ozone_column_scaling_hits_the_requested_dobson_units() {
     let text = "[atmosphere]\nozone_column_du = 300.0\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [540.0]\n";
-    let scaled = Job::parse(text, "o3.toml", Path::new("."))
-        .unwrap()
-        .atmosphere;
-    close(
-        "ozone column",
-        scaled.ozone_column_du.unwrap(),
-        300.0,
-        1e-12,
-    );
+    let scaled = Job::parse(text, "o3.toml", Path::new(".")).unwrap().atmosphere;
+    close("ozone column", scaled.ozone_column_du.unwrap(), 300.0, 1e-12);
     let text = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [540.0]\n";
-    let base = Job::parse(text, "o3.toml", Path::new("."))
-        .unwrap()
-        .atmosphere;
+    let base = Job::parse(text, "o3.toml", Path::new(".")).unwrap().atmosphere;
     let ratio = scaled.column(0).tau_absorption / base.column(0).tau_absorption;
     close(
         "ozone optical depth ratio",

@@ -38,10 +38,7 @@ fn rejects(text: &str, needles: &[&str]) -> String {
 
 #[test]
 fn default_atmosphere_prints_the_csv_header_layers_totals_and_visibility() {
-    let out = atmosim()
-        .args(["atmosphere", "--format", "csv"])
-        .output()
-        .unwrap();
+    let out = atmosim().args(["atmosphere", "--format", "csv"]).output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     let mut lines = text.lines();
@@ -51,11 +48,7 @@ fn default_atmosphere_prints_the_csv_header_layers_totals_and_visibility() {
             "wavelength_nm,bottom_km,top_km,tau_rayleigh,tau_ozone,tau_aerosol_ext,tau_aerosol_sca,aerosol_g,rayleigh_depolarization"
         )
     );
-    let rows: Vec<&str> = text
-        .lines()
-        .filter(|l| !l.starts_with('#'))
-        .skip(1)
-        .collect();
+    let rows: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).skip(1).collect();
     // 3 default wavelengths × the AFGL layers up to 100 km: 25 of 1 km,
     // 10 of 2.5 km, 10 of 5 km.
     assert_eq!(rows.len(), 3 * 45);
@@ -69,15 +62,8 @@ fn table_format_is_aligned() {
     let out = atmosim().arg("atmosphere").output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
-    let widths: Vec<usize> = text
-        .lines()
-        .filter(|l| !l.starts_with('#'))
-        .map(str::len)
-        .collect();
-    assert!(
-        widths.windows(2).all(|w| w[0] == w[1]),
-        "rows of different width"
-    );
+    let widths: Vec<usize> = text.lines().filter(|l| !l.starts_with('#')).map(str::len).collect();
+    assert!(widths.windows(2).all(|w| w[0] == w[1]), "rows of different width");
 }
 
 #[test]
@@ -92,11 +78,7 @@ fn a_job_file_selects_profile_wavelengths_and_visibility() {
         .args(["--format", "csv"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
         text.contains("# ground visibility (550 nm, Koschmieder): 30.00 km"),
@@ -107,19 +89,13 @@ fn a_job_file_selects_profile_wavelengths_and_visibility() {
 
 #[test]
 fn unknown_key_is_named_with_its_line() {
-    let e = rejects(
-        "[planet]\nradius_km = 6378.0\nraduis = 1.0\n",
-        &["raduis", "line 3"],
-    );
+    let e = rejects("[planet]\nradius_km = 6378.0\nraduis = 1.0\n", &["raduis", "line 3"]);
     assert!(e.contains("radius_km"), "valid keys should be listed: {e}");
 }
 
 #[test]
 fn unknown_section_is_refused() {
-    rejects(
-        "[atmosfere]\nprofile = \"us_standard\"\n",
-        &["atmosfere", "line 1"],
-    );
+    rejects("[atmosfere]\nprofile = \"us_standard\"\n", &["atmosfere", "line 1"]);
 }
 
 #[test]
@@ -153,10 +129,7 @@ fn unknown_mixture_lists_the_valid_names() {
 
 #[test]
 fn mixture_without_component_data_names_the_missing_components() {
-    rejects(
-        "[atmosphere]\naerosol = \"desert\"\n",
-        &["atmosphere.aerosol", "minm"],
-    );
+    rejects("[atmosphere]\naerosol = \"desert\"\n", &["atmosphere.aerosol", "minm"]);
 }
 
 #[test]
@@ -177,10 +150,7 @@ fn negative_radius_is_refused_with_the_valid_range() {
 
 #[test]
 fn non_finite_numbers_are_refused() {
-    rejects(
-        "[planet]\ntop_km = inf\n",
-        &["planet.top_km", "not a finite number"],
-    );
+    rejects("[planet]\ntop_km = inf\n", &["planet.top_km", "not a finite number"]);
     rejects(
         "[atmosphere]\nvisibility_km = nan\n",
         &["atmosphere.visibility_km", "not a finite number"],
@@ -211,10 +181,7 @@ fn wavelength_outside_the_data_names_the_range() {
 fn unreachable_visibility_names_the_largest_reachable_value() {
     rejects(
         "[atmosphere]\nvisibility_km = 500.0\n",
-        &[
-            "atmosphere.visibility_km",
-            "largest reachable visibility is 3",
-        ],
+        &["atmosphere.visibility_km", "largest reachable visibility is 3"],
     );
 }
 
@@ -274,18 +241,18 @@ fn a_profile_file_in_afgl_format_is_used() {
     )
     .unwrap();
     let path = dir.path().join("job.toml");
-    std::fs::write(&path, "[atmosphere]\nprofile_file = \"two.dat\"\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [540.0]\n").unwrap();
+    std::fs::write(
+        &path,
+        "[atmosphere]\nprofile_file = \"two.dat\"\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [540.0]\n",
+    )
+    .unwrap();
     let out = atmosim()
         .arg("atmosphere")
         .arg(&path)
         .args(["--format", "csv"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     // uvspec's 0-1 km Rayleigh optical depth at 540 nm: 0.01179596.
     assert!(text.contains("540,0,1,1.179596e-2,"), "{text}");
@@ -293,27 +260,17 @@ fn a_profile_file_in_afgl_format_is_used() {
 
 #[test]
 fn missing_job_file_is_a_user_error() {
-    let out = atmosim()
-        .args(["atmosphere", "no/such/job.toml"])
-        .output()
-        .unwrap();
+    let out = atmosim().args(["atmosphere", "no/such/job.toml"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/job.toml"));
 }
 
 #[test]
 fn the_example_job_runs() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/examples/libradtran_reference.toml"
-    );
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/libradtran_reference.toml");
     let out = atmosim()
         .args(["atmosphere", path, "--format", "csv"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }

@@ -25,18 +25,12 @@ fn render_writes_radiance_and_flux_csv() {
         .arg("--quiet")
         .output()
         .unwrap();
-    assert!(
-        status.status.success(),
-        "{}",
-        String::from_utf8_lossy(&status.stderr)
-    );
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
     let radiance = std::fs::read_to_string(out.join("radiance.csv")).unwrap();
     let mut lines = radiance.lines();
     assert_eq!(
         lines.next(),
-        Some(
-            "wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples"
-        )
+        Some("wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples")
     );
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
@@ -47,9 +41,7 @@ fn render_writes_radiance_and_flux_csv() {
         assert!(r[4] > 0.0 && r[8] > 0.0 && r[12] == 2000.0);
     }
     let fluxes = std::fs::read_to_string(out.join("fluxes.csv")).unwrap();
-    assert!(fluxes.starts_with(
-        "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples\n"
-    ));
+    assert!(fluxes.starts_with("wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples\n"));
     let f: Vec<f64> = fluxes
         .lines()
         .nth(1)
@@ -85,20 +77,13 @@ fn bad_render_keys_are_refused_before_anything_is_written() {
     for (extra, key) in [
         ("[sun]\nelevation_deg = 95.0\n", "sun.elevation_deg"),
         ("[ground]\nalbedo = 1.5\n", "ground.albedo"),
-        (
-            "[sensor]\nview_zenith_deg = [190.0]\n",
-            "sensor.view_zenith_deg",
-        ),
+        ("[sensor]\nview_zenith_deg = [190.0]\n", "sensor.view_zenith_deg"),
         ("[render]\nsamples = 0\n", "render.samples"),
         ("[render]\nmedium = \"lumpy\"\n", "lumpy"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let job = dir.path().join("job.toml");
-        std::fs::write(
-            &job,
-            format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}"),
-        )
-        .unwrap();
+        std::fs::write(&job, format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}")).unwrap();
         let out = atmosim()
             .current_dir(dir.path())
             .args(["render", "job.toml"])

@@ -22,11 +22,7 @@ fn writes_csv_and_exr_per_task_with_metadata() {
         .args(["transmittance", "job.toml", "--out", "tables", "-q"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     for task in ["vis020.0_alt01000m", "vis060.0_alt01000m"] {
         let base = dir.path().join("tables").join(task);
         let csv = std::fs::read_to_string(base.join("transmittance.csv")).unwrap();
@@ -47,9 +43,10 @@ fn writes_csv_and_exr_per_task_with_metadata() {
             }
         }
         // The default layout: a_i = 100·(i/3)³, d_j = 1571.524·(j/4)⁴.
-        assert!(rows.iter().any(
-            |r| (r[1] - 100.0 / 27.0).abs() < 1e-12 && (r[2] - 1571.524 / 256.0).abs() < 1e-12
-        ));
+        assert!(
+            rows.iter()
+                .any(|r| (r[1] - 100.0 / 27.0).abs() < 1e-12 && (r[2] - 1571.524 / 256.0).abs() < 1e-12)
+        );
         let exr = read_exr(&base.join("transmittance.exr")).unwrap();
         assert_eq!((exr.width, exr.height), (5, 4));
         let attrs = &exr.attributes;
@@ -78,19 +75,12 @@ fn bad_grids_are_refused() {
         ("altitude_nodes = 1\n", "transmittance.altitude_nodes"),
         ("distance_nodes = 0\n", "transmittance.distance_nodes"),
         ("distances_km = [0.0, -5.0]\n", "transmittance.distances_km"),
-        (
-            "altitudes_km = [0.0, 150.0]\n",
-            "transmittance.altitudes_km",
-        ),
+        ("altitudes_km = [0.0, 150.0]\n", "transmittance.altitudes_km"),
         ("altitudes_km = [1.0]\n", "transmittance.altitudes_km"),
         ("estimator = \"guess\"\n", "guess"),
     ] {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(
-            dir.path().join("job.toml"),
-            format!("[transmittance]\n{section}"),
-        )
-        .unwrap();
+        std::fs::write(dir.path().join("job.toml"), format!("[transmittance]\n{section}")).unwrap();
         let out = atmosim()
             .current_dir(dir.path())
             .args(["transmittance", "job.toml"])

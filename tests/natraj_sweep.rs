@@ -32,9 +32,8 @@ fn natraj_2009_full_sweep() {
     let mut worst_i = String::new();
     let start = std::time::Instant::now();
     // ATMOSIM_SWEEP_CSV=path writes every comparison for analysis.
-    let mut dump = String::from(
-        "tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref\n",
-    );
+    let mut dump =
+        String::from("tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref\n");
     for [tau, albedo, mu0, level] in keys {
         let group: Vec<&Vec<f64>> = rows
             .iter()
@@ -94,8 +93,5 @@ fn natraj_2009_full_sweep() {
     );
     cmp.assert_no_outlier("Natraj 2009 full sweep");
     assert!(max_rel_i < 0.003, "I error {max_rel_i}");
-    assert!(
-        max_dq < 3e-4 && max_du < 3e-4,
-        "Q/U errors {max_dq} {max_du}"
-    );
+    assert!(max_dq < 3e-4 && max_du < 3e-4, "Q/U errors {max_dq} {max_du}");
 }

@@ -6,9 +6,7 @@ mod common;
 
 use atmosim::medium::{Medium, MediumModel};
 use atmosim::shell::Geometry;
-use atmosim::transmittance::{
-    Estimator, Grid, Sight, TransmittanceSpec, compute, line_of_sight, optical_depth_to,
-};
+use atmosim::transmittance::{Estimator, Grid, Sight, TransmittanceSpec, compute, line_of_sight, optical_depth_to};
 use common::{Comparison, job};
 
 fn media(text: &str, model: MediumModel, scale: f64) -> (Vec<Medium>, Geometry) {
@@ -71,8 +69,7 @@ fn ratio_tracking_matches_the_exact_transmittance_with_honest_errors() {
                             );
                             continue;
                         }
-                        let what =
-                            || format!("{model:?} ×{scale} observer {observer} w {w} point {k}");
+                        let what = || format!("{model:?} ×{scale} observer {observer} w {w} point {k}");
                         cmp.add(what, rt.t[w][k], rt.se[w][k], exact.t[w][k], 0.0);
                         all.add(String::new, rt.t[w][k], rt.se[w][k], exact.t[w][k], 0.0);
                     }
@@ -122,10 +119,7 @@ fn direct_beam_matches_libradtran_edir() {
         let Sight::Clear { ray, length_km } = sight else {
             panic!("{sight:?}")
         };
-        assert!(
-            (ray.dir.z - mu).abs() < 1e-9,
-            "line of sight is not the sun direction"
-        );
+        assert!((ray.dir.z - mu).abs() < 1e-9, "line of sight is not the sun direction");
         let t = (-optical_depth_to(&m[0], &g, &ray, length_km)).exp();
         let expect = edir / mu;
         eprintln!(
@@ -173,18 +167,10 @@ fn reciprocity_and_blocking() {
     let (m, g) = media(ATMOSPHERE, MediumModel::Layered, 1.0);
     let levels = m[0].levels_km();
     for (h, a, d) in [(0.5, 12.0, 80.0), (3.0, 0.2, 40.0), (10.0, 60.0, 700.0)] {
-        let Sight::Clear {
-            ray: r1,
-            length_km: l1,
-        } = line_of_sight(&g, levels, h, a, d)
-        else {
+        let Sight::Clear { ray: r1, length_km: l1 } = line_of_sight(&g, levels, h, a, d) else {
             panic!()
         };
-        let Sight::Clear {
-            ray: r2,
-            length_km: l2,
-        } = line_of_sight(&g, levels, a, h, d)
-        else {
+        let Sight::Clear { ray: r2, length_km: l2 } = line_of_sight(&g, levels, a, h, d) else {
             panic!()
         };
         assert!((l1 - l2).abs() < 1e-9);
@@ -196,10 +182,7 @@ fn reciprocity_and_blocking() {
     }
     // From 1 km the horizon is 113 km away: ground points beyond are hidden.
     assert_eq!(line_of_sight(&g, levels, 1.0, 0.0, 300.0), Sight::Blocked);
-    assert!(matches!(
-        line_of_sight(&g, levels, 1.0, 0.0, 50.0),
-        Sight::Clear { .. }
-    ));
+    assert!(matches!(line_of_sight(&g, levels, 1.0, 0.0, 50.0), Sight::Clear { .. }));
     // Plane-parallel: nothing is blocked above the ground.
     assert!(matches!(
         line_of_sight(&Geometry::PlaneParallel, levels, 1.0, 0.0, 300.0),

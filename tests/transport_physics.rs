@@ -56,23 +56,15 @@ fn huge_radius_spherical_shells_agree_with_plane_parallel() {
     let layers = "[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 2.0\ntau_rayleigh = 0.2\nrayleigh_depolarization = 0.03\ntau_aerosol = 0.1\naerosol_ssa = 0.9\naerosol_g = 0.7\n\
                   [[atmosphere.layers]]\nbottom_km = 2.0\ntop_km = 30.0\ntau_rayleigh = 0.15\nrayleigh_depolarization = 0.03\ntau_absorption = 0.03\n";
     let rest = "[ground]\nalbedo = 0.3\n[sun]\nzenith_deg = 50.0\n[observer]\naltitude_km = 1.0\n";
-    let pp = job(&format!(
-        "[planet]\ngeometry = \"plane_parallel\"\n{layers}{rest}"
-    ));
+    let pp = job(&format!("[planet]\ngeometry = \"plane_parallel\"\n{layers}{rest}"));
     let sph = job(&format!("[planet]\nradius_km = 1.0e6\n{layers}{rest}"));
-    let dirs: Vec<Direction> = [
-        (0.0, 0.0),
-        (40.0, 30.0),
-        (75.0, 120.0),
-        (110.0, 200.0),
-        (160.0, 90.0),
-    ]
-    .iter()
-    .map(|&(z, a)| Direction {
-        view_zenith_deg: z,
-        azimuth_deg: a,
-    })
-    .collect();
+    let dirs: Vec<Direction> = [(0.0, 0.0), (40.0, 30.0), (75.0, 120.0), (110.0, 200.0), (160.0, 90.0)]
+        .iter()
+        .map(|&(z, a)| Direction {
+            view_zenith_deg: z,
+            azimuth_deg: a,
+        })
+        .collect();
     let a = render_directions(&pp.scene(0), 1.0, &dirs, 100_000, 1, 0);
     let b = render_directions(&sph.scene(0), 1.0, &dirs, 100_000, 2, 0);
     let mut cmp = Comparison::default();
@@ -106,10 +98,7 @@ fn output_is_bit_identical_for_any_thread_count() {
         },
     ];
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| render_directions(&j.scene(0), 0.0, &dirs, 5_000, 42, 0))
     };
     let one = run(1);
@@ -152,6 +141,6 @@ fn looking_at_the_sun_through_an_empty_atmosphere_sees_nothing() {
     let text = "[planet]\ngeometry = \"plane_parallel\"\n[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 1.0\n[sun]\nzenith_deg = 30.0\n\
                 [sensor]\ndirections = [[30.0, 0.0]]\n";
     let j = job(text);
-    let t = render_directions(&j.scene(0), 0.0, &j.render.directions, 1_000, 1, 0);
+    let t = render_directions(&j.scene(0), 0.0, j.render.directions(), 1_000, 1, 0);
     assert_eq!(t[0].mean(), [0.0; 4]);
 }

@@ -34,10 +34,7 @@ fn natraj_2009_subset() {
                         .rows
                         .iter()
                         .filter(|r| r[0] == tau && r[1] == albedo && r[2] == mu0 && r[3] == level)
-                        .filter(|r| {
-                            mus.iter()
-                                .any(|m| (r[4].to_radians().cos().abs() - m).abs() < 1e-6)
-                        })
+                        .filter(|r| mus.iter().any(|m| (r[4].to_radians().cos().abs() - m).abs() < 1e-6))
                         .filter(|r| [0.0, 90.0, 180.0].contains(&r[5]))
                         .collect();
                     assert!(!rows.is_empty());
@@ -81,24 +78,12 @@ fn iprt_compare(file: &str, stride: usize, job_for: impl Fn(f64) -> String) -> C
     levels.dedup();
     let mut cmp = Comparison::default();
     for zout in levels {
-        let rows: Vec<&Vec<f64>> = t
-            .rows
-            .iter()
-            .filter(|r| r[0] == zout)
-            .step_by(stride)
-            .collect();
+        let rows: Vec<&Vec<f64>> = t.rows.iter().filter(|r| r[0] == zout).step_by(stride).collect();
         let tallies = render(&job(&job_for(zout)), zout, &directions(&rows, 1, 2), n);
         for (r, tl) in rows.iter().zip(&tallies) {
             let (m, se) = (tl.mean(), tl.standard_error());
             for k in 0..3 {
-                let what = || {
-                    format!(
-                        "{file} {} zout {zout} θ {} φ {}",
-                        ["I", "Q", "U"][k],
-                        r[1],
-                        r[2]
-                    )
-                };
+                let what = || format!("{file} {} zout {zout} θ {} φ {}", ["I", "Q", "U"][k], r[1], r[2]);
                 cmp.add(what, m[k], se[k], r[3 + k], r[7 + k]);
             }
         }
@@ -201,14 +186,7 @@ fn korkin_single_scattering_of_b2() {
             let (m, se) = (tl.mean(), tl.standard_error());
             for k in 0..3 {
                 // Exact to 5e-6 relative of I.
-                let what = || {
-                    format!(
-                        "Korkin {} sza {sza} θ {} φ {}",
-                        ["I", "Q", "U"][k],
-                        r[1],
-                        r[2]
-                    )
-                };
+                let what = || format!("Korkin {} sza {sza} θ {} φ {}", ["I", "Q", "U"][k], r[1], r[2]);
                 cmp.add(what, m[k], se[k], r[3 + k], 5e-6 * r[3]);
             }
         }

@@ -74,14 +74,7 @@ pub(super) fn resolve_profile_spec(
                 "leave it out, or set ozone = \"bogumil\" or \"molina\"",
             ));
         }
-        Some(du) => Some(ctx.range(
-            "atmosphere.ozone_column_du",
-            du,
-            0.0,
-            2000.0,
-            false,
-            "0 to 2000 DU",
-        )?),
+        Some(du) => Some(ctx.range("atmosphere.ozone_column_du", du, 0.0, 2000.0, false, "0 to 2000 DU")?),
     };
     let aerosol_name = atm.aerosol.as_deref().unwrap_or("continental_average");
     let aerosol = if aerosol_name == "none" {
@@ -92,10 +85,7 @@ pub(super) fn resolve_profile_spec(
                 "atmosphere.aerosol",
                 format!("\"{aerosol_name}\""),
                 "unknown aerosol mixture",
-                &format!(
-                    "\"none\" or an OPAC mixture: {}",
-                    data::names(data::OPAC_MIXTURES)
-                ),
+                &format!("\"none\" or an OPAC mixture: {}", data::names(data::OPAC_MIXTURES)),
             )
         })?;
         Some(a.map_err(|e| {
@@ -170,18 +160,9 @@ pub(super) fn resolve_layers(ctx: &Ctx, raw: &[RawLayer]) -> Result<Vec<Explicit
         .enumerate()
         .map(|(i, l)| {
             let key = |k: &str| format!("atmosphere.layers[{i}].{k}");
-            let nonneg = |k: &str, v: f64| {
-                ctx.range(&key(k), v, 0.0, f64::MAX, false, "a finite number ≥ 0")
-            };
+            let nonneg = |k: &str, v: f64| ctx.range(&key(k), v, 0.0, f64::MAX, false, "a finite number ≥ 0");
             let bottom_km = nonneg("bottom_km", l.bottom_km)?;
-            let top_km = ctx.range(
-                &key("top_km"),
-                l.top_km,
-                bottom_km,
-                f64::MAX,
-                true,
-                "above bottom_km",
-            )?;
+            let top_km = ctx.range(&key("top_km"), l.top_km, bottom_km, f64::MAX, true, "above bottom_km")?;
             Ok(ExplicitLayer {
                 bottom_km,
                 top_km,
@@ -196,14 +177,7 @@ pub(super) fn resolve_layers(ctx: &Ctx, raw: &[RawLayer]) -> Result<Vec<Explicit
                 )?,
                 tau_absorption: nonneg("tau_absorption", l.tau_absorption)?,
                 tau_aerosol: nonneg("tau_aerosol", l.tau_aerosol)?,
-                aerosol_ssa: ctx.range(
-                    &key("aerosol_ssa"),
-                    l.aerosol_ssa,
-                    0.0,
-                    1.0,
-                    false,
-                    "0 to 1",
-                )?,
+                aerosol_ssa: ctx.range(&key("aerosol_ssa"), l.aerosol_ssa, 0.0, 1.0, false, "0 to 1")?,
                 aerosol_g: ctx.range(
                     &key("aerosol_g"),
                     l.aerosol_g,

@@ -15,6 +15,7 @@ use crate::medium::Medium;
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
+use crate::sun::Sun;
 use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
@@ -31,7 +32,7 @@ mod raw;
 mod render;
 mod transmittance;
 
-pub use render::RenderSpec;
+pub use render::{RenderSpec, Sensor, Units};
 
 // Resolved job
 
@@ -74,7 +75,7 @@ pub struct Job {
     pub source: AtmosphereSource,
     /// The atmosphere of the first task.
     pub atmosphere: Atmosphere,
-    /// The job's grid: visibility × observer altitude, in that order.
+    /// The job's grid: visibility × sun zenith × observer altitude, in that order.
     pub tasks: Vec<Task>,
     pub render: RenderSpec,
     pub transmittance: TransmittanceSpec,
@@ -87,23 +88,28 @@ pub struct Job {
 pub struct Task {
     /// Position in the job's task list (from 0).
     pub index: usize,
-    /// Stable readable name, e.g. `vis059.4_alt01000m`.
+    /// Stable readable name, e.g. `vis059.4_elev+05.0_alt01000m`.
     pub name: String,
     /// The requested visibility, if any.
     pub visibility_km: Option<f64>,
+    pub sun: Sun,
     pub observer_altitude_km: f64,
     pub atmosphere: Atmosphere,
 }
 
-/// `vis059.4_alt01000m`: the requested visibility, else the atmosphere's
-/// own ground visibility (`novis` without aerosol), and the observer
-/// altitude in metres.
-fn task_name(visibility_km: Option<f64>, atmosphere: &Atmosphere, altitude_km: f64) -> String {
+/// `vis059.4_elev+05.0_alt01000m`: the requested visibility, else the
+/// atmosphere's own ground visibility (`novis` without aerosol), the sun's
+/// elevation in degrees and the observer altitude in metres.
+fn task_name(visibility_km: Option<f64>, atmosphere: &Atmosphere, sun_zenith_deg: f64, altitude_km: f64) -> String {
     let vis = match visibility_km.or(atmosphere.visibility.map(|v| v.ground_km)) {
         Some(v) => format!("vis{v:05.1}"),
         None => "novis".to_string(),
     };
-    format!("{vis}_alt{:05.0}m", altitude_km * 1000.0)
+    format!(
+        "{vis}_elev{:+05.1}_alt{:05.0}m",
+        90.0 - sun_zenith_deg,
+        altitude_km * 1000.0
+    )
 }
 
 /// Validation context: the file name for every error.
@@ -112,13 +118,7 @@ pub(super) struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    pub(super) fn invalid(
-        &self,
-        key: &str,
-        value: impl std::fmt::Display,
-        reason: &str,
-        valid: &str,
-    ) -> Error {
+    pub(super) fn invalid(&self, key: &str, value: impl std::fmt::Display, reason: &str, valid: &str) -> Error {
         Error::InvalidValue {
             file: self.file.to_string(),
             key: key.to_string(),
@@ -129,15 +129,7 @@ impl Ctx<'_> {
     }
 
     /// A finite number within [lo, hi] (inclusive by the flags).
-    pub(super) fn range(
-        &self,
-        key: &str,
-        v: f64,
-        lo: f64,
-        hi: f64,
-        lo_open: bool,
-        valid: &str,
-    ) -> Result<f64> {
+    pub(super) fn range(&self, key: &str, v: f64, lo: f64, hi: f64, lo_open: bool, valid: &str) -> Result<f64> {
         let ok = v.is_finite() && (if lo_open { v > lo } else { v >= lo }) && v <= hi;
         if ok {
             Ok(v)
@@ -160,23 +152,33 @@ impl Job {
         }
     }
 
-    /// The scene of the first task at wavelength index `w`.
-    pub fn scene(&self, w: usize) -> Scene {
-        self.scene_for(&self.atmosphere, w)
+    /// The tasks of the transmittance tables: one per visibility and
+    /// observer altitude (the sun does not matter), named like
+    /// `vis059.4_alt01000m`.
+    pub fn transmittance_tasks(&self) -> Vec<(&Task, String)> {
+        let first_sun = self.render.sun_zeniths_deg[0];
+        self.tasks
+            .iter()
+            .filter(|t| t.sun.zenith_deg == first_sun)
+            .map(|t| {
+                let vis = t.name.split('_').next().unwrap_or_default();
+                (t, format!("{vis}_alt{:05.0}m", t.observer_altitude_km * 1000.0))
+            })
+            .collect()
     }
 
-    /// The scene of an atmosphere (of one of the tasks) at wavelength `w`.
-    pub fn scene_for(&self, atmosphere: &Atmosphere, w: usize) -> Scene {
+    /// The scene of the first task and albedo at wavelength index `w`.
+    pub fn scene(&self, w: usize) -> Scene {
+        self.scene_for(&self.tasks[0], w, self.render.albedos[0])
+    }
+
+    /// The scene of a task at wavelength index `w` and ground albedo.
+    pub fn scene_for(&self, task: &Task, w: usize, albedo: f64) -> Scene {
         Scene {
             geometry: self.geometry(),
-            medium: Medium::new(
-                atmosphere,
-                w,
-                self.render.medium,
-                self.render.majorant_scale,
-            ),
-            sun: self.render.sun,
-            albedo: self.render.albedo,
+            medium: Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale),
+            sun: task.sun,
+            albedo,
             settings: self.render.settings,
         }
     }
@@ -292,8 +294,8 @@ impl Job {
             let mut atmospheres = Vec::with_capacity(visibilities.len());
             for v in visibilities {
                 spec.visibility_km = v;
-                let atmosphere = Atmosphere::from_profile(&spec, top_km, &wavelengths_nm)
-                    .map_err(|e| build_error(&ctx, &atm, e))?;
+                let atmosphere =
+                    Atmosphere::from_profile(&spec, top_km, &wavelengths_nm).map_err(|e| build_error(&ctx, &atm, e))?;
                 atmospheres.push((v, atmosphere));
             }
             let source = AtmosphereSource::Profile {
@@ -334,16 +336,20 @@ impl Job {
                 ));
             }
         }
-        let mut tasks = Vec::with_capacity(atmospheres.len() * altitudes.len());
+        let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output)?;
+        let mut tasks = Vec::with_capacity(atmospheres.len() * render.sun_zeniths_deg.len() * altitudes.len());
         for (v, atmosphere) in &atmospheres {
-            for &h in &altitudes {
-                tasks.push(Task {
-                    index: tasks.len(),
-                    name: task_name(*v, atmosphere, h),
-                    visibility_km: *v,
-                    observer_altitude_km: h,
-                    atmosphere: atmosphere.clone(),
-                });
+            for &z in &render.sun_zeniths_deg {
+                for &h in &altitudes {
+                    tasks.push(Task {
+                        index: tasks.len(),
+                        name: task_name(*v, atmosphere, z, h),
+                        visibility_km: *v,
+                        sun: Sun::new(z, render.sun_angular_radius_deg),
+                        observer_altitude_km: h,
+                        atmosphere: atmosphere.clone(),
+                    });
+                }
             }
         }
         let atmosphere = tasks[0].atmosphere.clone();
@@ -354,9 +360,6 @@ impl Job {
             raw.transmittance,
             top_km,
             (geometry == GeometryKind::Spherical).then_some(radius_km),
-        )?;
-        let render = render::resolve(
-            &ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output,
         )?;
 
         Ok(Job {

@@ -96,21 +96,57 @@ pub(super) struct RawObserver {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSun {
-    pub(super) zenith_deg: Option<f64>,
-    pub(super) elevation_deg: Option<f64>,
+    pub(super) zenith_deg: Option<OneOrMany>,
+    pub(super) elevation_deg: Option<OneOrMany>,
     pub(super) angular_radius_deg: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawGround {
-    pub(super) albedo: Option<f64>,
+    pub(super) albedo: Option<OneOrMany>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub(super) enum RawSensorKind {
     Directions,
+    Fisheye,
+    Panorama,
+    Sphere,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawHemisphere {
+    Up,
+    Down,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawProjection {
+    Equidistant,
+    Equisolid,
+    Stereographic,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawPixelFilter {
+    Box,
+    Center,
+}
+
+/// `resolution = 256` or `resolution = [512, 256]`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(
+    untagged,
+    expecting = "a whole number or a list of two whole numbers [width, height]"
+)]
+pub(super) enum RawResolution {
+    Square(i64),
+    Rect([i64; 2]),
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -122,6 +158,10 @@ pub(super) struct RawSensor {
     pub(super) azimuth_deg: Option<Vec<f64>>,
     pub(super) directions: Option<Vec<[f64; 2]>>,
     pub(super) fluxes: Option<bool>,
+    pub(super) resolution: Option<RawResolution>,
+    pub(super) hemisphere: Option<RawHemisphere>,
+    pub(super) projection: Option<RawProjection>,
+    pub(super) pixel_filter: Option<RawPixelFilter>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]
@@ -156,6 +196,17 @@ pub(super) struct RawRender {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawOutput {
     pub(super) directory: Option<PathBuf>,
+    pub(super) sun: Option<bool>,
+    pub(super) units: Option<RawUnits>,
+    pub(super) preview: Option<bool>,
+    pub(super) exposure: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawUnits {
+    Normalized,
+    Absolute,
 }
 
 /// A number or a list of numbers (a grid axis).

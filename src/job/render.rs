@@ -5,16 +5,16 @@ use std::path::PathBuf;
 
 use super::Ctx;
 use super::raw::{
-    RawGround, RawMedium, RawOutput, RawRender, RawSensor, RawSensorKind, RawSun,
-    RawSunTransmittance,
+    OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
+    RawSensor, RawSensorKind, RawSun, RawSunTransmittance, RawUnits,
 };
+use crate::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::error::Result;
 use crate::integrator::{Settings, SunTransmittance};
 use crate::medium::MediumModel;
 use crate::render::Direction;
-use crate::sun::Sun;
 
-/// Default samples per direction.
+/// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;
 /// Default sun zenith angle (degrees).
 pub const DEFAULT_SUN_ZENITH_DEG: f64 = 45.0;
@@ -22,21 +22,79 @@ pub const DEFAULT_SUN_ZENITH_DEG: f64 = 45.0;
 pub const DEFAULT_VIEW_ZENITH_DEG: [f64; 4] = [0.0, 30.0, 60.0, 78.46];
 /// Default azimuths (degrees) of the `directions` sensor.
 pub const DEFAULT_AZIMUTH_DEG: [f64; 3] = [0.0, 90.0, 180.0];
+/// Largest image side (pixels).
+pub const MAX_RESOLUTION: i64 = 16384;
+
+/// What the sensor records.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Sensor {
+    /// Radiance in a list of viewing directions (a CSV).
+    Directions(Vec<Direction>),
+    /// An image (an EXR).
+    Image(Camera),
+}
+
+/// Output radiance units (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Units {
+    /// Per unit extraterrestrial solar irradiance (E0 = 1), sr⁻¹.
+    Normalized,
+    /// × the Kurucz solar irradiance: W m⁻² sr⁻¹ nm⁻¹.
+    Absolute,
+}
 
 /// What a render needs besides the atmosphere.
 #[derive(Debug, Clone)]
 pub struct RenderSpec {
-    pub sun: Sun,
-    pub albedo: f64,
-    pub directions: Vec<Direction>,
-    /// Also estimate the fluxes at the observer level.
+    /// Sun zenith angles (degrees): a grid axis.
+    pub sun_zeniths_deg: Vec<f64>,
+    pub sun_angular_radius_deg: f64,
+    /// Ground albedos; each is rendered.
+    pub albedos: Vec<f64>,
+    pub sensor: Sensor,
+    pub pixel_filter: PixelFilter,
+    /// Also estimate the fluxes at the observer level (`directions`).
     pub fluxes: bool,
+    /// Samples per direction or pixel.
     pub samples: u64,
     pub seed: u64,
     pub settings: Settings,
     pub medium: MediumModel,
     pub majorant_scale: f64,
     pub output_directory: PathBuf,
+    /// Write the transmitted direct sun per wavelength.
+    pub output_sun: bool,
+    pub units: Units,
+    /// Write PNG previews of images.
+    pub preview: bool,
+    /// Preview exposure (multiplier before the sRGB curve); `None`: auto.
+    pub exposure: Option<f64>,
+}
+
+impl RenderSpec {
+    /// The `directions` sensor's list, empty for images.
+    pub fn directions(&self) -> &[Direction] {
+        match &self.sensor {
+            Sensor::Directions(d) => d,
+            Sensor::Image(_) => &[],
+        }
+    }
+}
+
+fn axis(ctx: &Ctx, key: &str, v: &OneOrMany, lo: f64, hi: f64, valid: &str) -> Result<Vec<f64>> {
+    let values = v.values();
+    if values.is_empty() {
+        return Err(ctx.invalid(
+            key,
+            "[]",
+            "empty list",
+            &format!("a number or a non-empty list, {valid}"),
+        ));
+    }
+    values
+        .into_iter()
+        .map(|x| ctx.range(key, x, lo, hi, false, valid))
+        .collect()
 }
 
 pub(super) fn resolve(
@@ -48,7 +106,7 @@ pub(super) fn resolve(
     output: Option<RawOutput>,
 ) -> Result<RenderSpec> {
     let sun = sun.unwrap_or_default();
-    let zenith_deg = match (sun.zenith_deg, sun.elevation_deg) {
+    let sun_zeniths_deg = match (&sun.zenith_deg, &sun.elevation_deg) {
         (Some(_), Some(_)) => {
             return Err(ctx.invalid(
                 "sun.elevation_deg",
@@ -57,20 +115,14 @@ pub(super) fn resolve(
                 "one of sun.zenith_deg or sun.elevation_deg",
             ));
         }
-        (Some(z), None) => ctx.range("sun.zenith_deg", z, 0.0, 180.0, false, "0 to 180 degrees")?,
-        (None, Some(e)) => {
-            90.0 - ctx.range(
-                "sun.elevation_deg",
-                e,
-                -90.0,
-                90.0,
-                false,
-                "-90 to 90 degrees",
-            )?
-        }
-        (None, None) => DEFAULT_SUN_ZENITH_DEG,
+        (Some(z), None) => axis(ctx, "sun.zenith_deg", z, 0.0, 180.0, "0 to 180 degrees")?,
+        (None, Some(e)) => axis(ctx, "sun.elevation_deg", e, -90.0, 90.0, "-90 to 90 degrees")?
+            .into_iter()
+            .map(|e| 90.0 - e)
+            .collect(),
+        (None, None) => vec![DEFAULT_SUN_ZENITH_DEG],
     };
-    let radius = ctx.range(
+    let sun_angular_radius_deg = ctx.range(
         "sun.angular_radius_deg",
         sun.angular_radius_deg.unwrap_or(0.0),
         0.0,
@@ -79,25 +131,81 @@ pub(super) fn resolve(
         "0 (point sun) to 5 degrees; the sun's is 0.2666",
     )?;
 
-    let albedo = ctx.range(
-        "ground.albedo",
-        ground.unwrap_or_default().albedo.unwrap_or(0.0),
-        0.0,
-        1.0,
-        false,
-        "0 to 1",
-    )?;
+    let albedos = match ground.unwrap_or_default().albedo {
+        None => vec![0.0],
+        Some(a) => axis(ctx, "ground.albedo", &a, 0.0, 1.0, "0 to 1")?,
+    };
 
-    let sensor = sensor.unwrap_or_default();
-    // The only sensor type so far; images come with their own types.
-    match sensor.kind {
-        None | Some(RawSensorKind::Directions) => {}
+    let sensor_raw = sensor.unwrap_or_default();
+    let kind = sensor_raw.kind.unwrap_or(RawSensorKind::Directions);
+    let sensor = match kind {
+        RawSensorKind::Directions => Sensor::Directions(resolve_directions(ctx, &sensor_raw)?),
+        image => Sensor::Image(resolve_camera(ctx, image, &sensor_raw)?),
+    };
+    let pixel_filter = match sensor_raw.pixel_filter.unwrap_or(RawPixelFilter::Box) {
+        RawPixelFilter::Box => PixelFilter::Box,
+        RawPixelFilter::Center => PixelFilter::Center,
+    };
+
+    let render = render.unwrap_or_default();
+    let samples = render.samples.unwrap_or(DEFAULT_SAMPLES);
+    if samples == 0 {
+        return Err(ctx.invalid("render.samples", 0, "no samples", "at least 1"));
     }
-    let directions = match (
-        &sensor.directions,
-        &sensor.view_zenith_deg,
-        &sensor.azimuth_deg,
-    ) {
+    let majorant_scale = ctx.range(
+        "render.majorant_scale",
+        render.majorant_scale.unwrap_or(1.0),
+        1.0,
+        1.0e6,
+        false,
+        "1 (tight) or more",
+    )?;
+    let sun_samples_per_flight = match render.sun_samples_per_flight.unwrap_or(1) {
+        0 => return Err(ctx.invalid("render.sun_samples_per_flight", 0, "no sun connections", "1 or more")),
+        k => k,
+    };
+    let output = output.unwrap_or_default();
+    let exposure = match output.exposure {
+        None => None,
+        Some(e) => Some(ctx.range("output.exposure", e, 0.0, f64::MAX, true, "a positive multiplier")?),
+    };
+    Ok(RenderSpec {
+        sun_zeniths_deg,
+        sun_angular_radius_deg,
+        albedos,
+        sensor,
+        pixel_filter,
+        fluxes: sensor_raw.fluxes.unwrap_or(true),
+        samples,
+        seed: render.seed.unwrap_or(1),
+        settings: Settings {
+            polarized: render.polarized.unwrap_or(true),
+            max_scattering_order: render.max_scattering_order.unwrap_or(0),
+            sun_transmittance: match render.sun_transmittance.unwrap_or(RawSunTransmittance::Analytic) {
+                RawSunTransmittance::Analytic => SunTransmittance::Analytic,
+                RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
+            },
+            forced_collisions: render.forced_collisions.unwrap_or(true),
+            sun_samples_per_flight,
+        },
+        medium: match render.medium.unwrap_or(RawMedium::Layered) {
+            RawMedium::Layered => MediumModel::Layered,
+            RawMedium::Smooth => MediumModel::Smooth,
+        },
+        majorant_scale,
+        output_directory: output.directory.unwrap_or_else(|| PathBuf::from("out")),
+        output_sun: output.sun.unwrap_or(false),
+        units: match output.units.unwrap_or(RawUnits::Normalized) {
+            RawUnits::Normalized => Units::Normalized,
+            RawUnits::Absolute => Units::Absolute,
+        },
+        preview: output.preview.unwrap_or(true),
+        exposure,
+    })
+}
+
+fn resolve_directions(ctx: &Ctx, sensor: &RawSensor) -> Result<Vec<Direction>> {
+    let directions = match (&sensor.directions, &sensor.view_zenith_deg, &sensor.azimuth_deg) {
         (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
             return Err(ctx.invalid(
                 "sensor.directions",
@@ -110,9 +218,7 @@ pub(super) fn resolve(
         (None, zs, azs) => {
             let zs = zs.clone().unwrap_or(DEFAULT_VIEW_ZENITH_DEG.to_vec());
             let azs = azs.clone().unwrap_or(DEFAULT_AZIMUTH_DEG.to_vec());
-            zs.iter()
-                .flat_map(|&z| azs.iter().map(move |&a| (z, a)))
-                .collect()
+            zs.iter().flat_map(|&z| azs.iter().map(move |&a| (z, a))).collect()
         }
     };
     if directions.is_empty() {
@@ -123,7 +229,7 @@ pub(super) fn resolve(
             "at least one direction",
         ));
     }
-    let directions = directions
+    directions
         .into_iter()
         .map(|(z, a)| {
             Ok(Direction {
@@ -145,59 +251,62 @@ pub(super) fn resolve(
                 )?,
             })
         })
-        .collect::<Result<Vec<_>>>()?;
+        .collect()
+}
 
-    let render = render.unwrap_or_default();
-    let samples = render.samples.unwrap_or(DEFAULT_SAMPLES);
-    if samples == 0 {
-        return Err(ctx.invalid("render.samples", 0, "no samples", "at least 1"));
-    }
-    let majorant_scale = ctx.range(
-        "render.majorant_scale",
-        render.majorant_scale.unwrap_or(1.0),
-        1.0,
-        1.0e6,
-        false,
-        "1 (tight) or more",
-    )?;
-    Ok(RenderSpec {
-        sun: Sun::new(zenith_deg, radius),
-        albedo,
-        directions,
-        fluxes: sensor.fluxes.unwrap_or(true),
-        samples,
-        seed: render.seed.unwrap_or(1),
-        settings: Settings {
-            polarized: render.polarized.unwrap_or(true),
-            max_scattering_order: render.max_scattering_order.unwrap_or(0),
-            sun_transmittance: match render
-                .sun_transmittance
-                .unwrap_or(RawSunTransmittance::Analytic)
-            {
-                RawSunTransmittance::Analytic => SunTransmittance::Analytic,
-                RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
-            },
-            forced_collisions: render.forced_collisions.unwrap_or(true),
-            sun_samples_per_flight: match render.sun_samples_per_flight.unwrap_or(1) {
-                0 => {
-                    return Err(ctx.invalid(
-                        "render.sun_samples_per_flight",
-                        0,
-                        "no sun connections",
-                        "1 or more",
-                    ));
-                }
-                k => k,
-            },
+fn resolve_camera(ctx: &Ctx, kind: RawSensorKind, sensor: &RawSensor) -> Result<Camera> {
+    let side = |key: &str, v: i64| -> Result<usize> {
+        if (1..=MAX_RESOLUTION).contains(&v) {
+            Ok(v as usize)
+        } else {
+            Err(ctx.invalid(
+                key,
+                v,
+                "not a usable image size",
+                &format!("1 to {MAX_RESOLUTION} pixels"),
+            ))
+        }
+    };
+    let (width, height) = match sensor.resolution {
+        None => match kind {
+            RawSensorKind::Fisheye => (128, 128),
+            RawSensorKind::Panorama => (180, 180),
+            _ => (360, 180),
         },
-        medium: match render.medium.unwrap_or(RawMedium::Layered) {
-            RawMedium::Layered => MediumModel::Layered,
-            RawMedium::Smooth => MediumModel::Smooth,
-        },
-        majorant_scale,
-        output_directory: output
-            .unwrap_or_default()
-            .directory
-            .unwrap_or_else(|| PathBuf::from("out")),
+        Some(RawResolution::Square(n)) => {
+            let n = side("sensor.resolution", n)?;
+            match kind {
+                RawSensorKind::Sphere => (2 * n, n),
+                _ => (n, n),
+            }
+        }
+        Some(RawResolution::Rect([w, h])) => (side("sensor.resolution", w)?, side("sensor.resolution", h)?),
+    };
+    Ok(match kind {
+        RawSensorKind::Fisheye => {
+            if width != height {
+                return Err(ctx.invalid(
+                    "sensor.resolution",
+                    format!("[{width}, {height}]"),
+                    "a fisheye image is square",
+                    "one number, e.g. resolution = 256",
+                ));
+            }
+            Camera::Fisheye {
+                resolution: width,
+                hemisphere: match sensor.hemisphere.unwrap_or(RawHemisphere::Up) {
+                    RawHemisphere::Up => Hemisphere::Up,
+                    RawHemisphere::Down => Hemisphere::Down,
+                },
+                projection: match sensor.projection.unwrap_or(RawProjection::Equidistant) {
+                    RawProjection::Equidistant => Projection::Equidistant,
+                    RawProjection::Equisolid => Projection::Equisolid,
+                    RawProjection::Stereographic => Projection::Stereographic,
+                },
+            }
+        }
+        RawSensorKind::Panorama => Camera::Panorama { width, height },
+        RawSensorKind::Sphere => Camera::Sphere { width, height },
+        RawSensorKind::Directions => unreachable!("handled by the caller"),
     })
 }

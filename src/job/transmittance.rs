@@ -52,12 +52,7 @@ pub(super) fn resolve(
     let mut grid = Grid::sky_model(top_km, n_a, n_d, d_max);
     let list = |key: &str, values: &[f64], hi: f64, valid: &str| -> Result<Vec<f64>> {
         if values.len() < 2 {
-            return Err(ctx.invalid(
-                key,
-                format!("{values:?}"),
-                "fewer than 2 nodes",
-                "a list of 2 or more",
-            ));
+            return Err(ctx.invalid(key, format!("{values:?}"), "fewer than 2 nodes", "a list of 2 or more"));
         }
         values
             .iter()
@@ -71,17 +66,11 @@ pub(super) fn resolve(
             top_km,
             &format!("0 to planet.top_km ({top_km} km)"),
         )?;
-        grid.definition = format!(
-            "altitudes_km = {:?}; {}",
-            grid.altitudes_km, grid.definition
-        );
+        grid.definition = format!("altitudes_km = {:?}; {}", grid.altitudes_km, grid.definition);
     }
     if let Some(d) = &raw.distances_km {
         grid.distances_km = list("transmittance.distances_km", d, max_d, &max_d_text)?;
-        grid.definition = format!(
-            "distances_km = {:?}; {}",
-            grid.distances_km, grid.definition
-        );
+        grid.definition = format!("distances_km = {:?}; {}", grid.distances_km, grid.definition);
     }
     if raw.altitudes_km.is_some() && raw.distances_km.is_some() {
         grid.definition = format!(

@@ -33,14 +33,7 @@ pub fn samples(default: u64) -> u64 {
 
 /// Renders `directions` of wavelength index 0 of `job` at `altitude_km`.
 pub fn render(job: &Job, altitude_km: f64, directions: &[Direction], samples: u64) -> Vec<Tally> {
-    render_directions(
-        &job.scene(0),
-        altitude_km,
-        directions,
-        samples,
-        job.render.seed,
-        0,
-    )
+    render_directions(&job.scene(0), altitude_km, directions, samples, job.render.seed, 0)
 }
 
 /// A family of comparisons with a reference.
@@ -54,14 +47,7 @@ pub struct Comparison {
 impl Comparison {
     /// Adds one value: atmosim's mean and standard error, the reference and
     /// its standard error (0 for exact references: a floor of `ref_floor`).
-    pub fn add(
-        &mut self,
-        what: impl FnOnce() -> String,
-        mean: f64,
-        se: f64,
-        reference: f64,
-        ref_se: f64,
-    ) {
+    pub fn add(&mut self, what: impl FnOnce() -> String, mean: f64, se: f64, reference: f64, ref_se: f64) {
         let combined = (se * se + ref_se * ref_se).sqrt();
         let z = if combined > 0.0 {
             (mean - reference) / combined
