@@ -9,8 +9,14 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use atmosim::job::Job;
+use std::io::IsTerminal;
+
+use atmosim::camera::Camera;
+use atmosim::job::{Sensor, Task};
 use atmosim::medium::Medium;
-use atmosim::{output, render, report, transmittance};
+use atmosim::sky_image;
+use atmosim::{output, plan, render, report, transmittance};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Parser)]
 #[command(
@@ -33,6 +39,12 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = FormatArg::Table)]
         format: FormatArg,
+    },
+    /// List a job's tasks with their cost: paths and core-hours estimated
+    /// from a short calibration render of the first task.
+    Plan {
+        /// Job file (TOML).
+        job: PathBuf,
     },
     /// Transmittance tables T(altitude, ground distance) from the observer,
     /// per task (visibility × observer altitude), all wavelengths at once:
@@ -114,31 +126,59 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             };
             let base = out.unwrap_or_else(|| job.render.output_directory.clone());
-            for task in &job.tasks {
-                let result = pool.install(|| render::render_task(&job, task, &log));
-                let radiance = output::radiance_csv(&result.radiance);
-                if stdout {
-                    let mut out = std::io::stdout().lock();
-                    if job.tasks.len() > 1 {
-                        writeln!(out, "# task {}", task.name).context("writing to stdout")?;
-                    }
-                    out.write_all(radiance.as_bytes()).context("writing to stdout")?;
-                    out.flush().context("writing to stdout")?;
+            // One task: the files go in the output directory itself; a grid:
+            // one sub-directory per task.
+            let task_dir = |task: &Task| {
+                if job.tasks.len() == 1 {
+                    base.clone()
                 } else {
-                    // One task: the files go in the output directory itself;
-                    // a grid: one sub-directory per task.
-                    let dir = if job.tasks.len() == 1 {
-                        base.clone()
-                    } else {
-                        base.join(&task.name)
-                    };
-                    output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
-                    if !result.fluxes.is_empty() {
-                        output::write_atomic(&dir.join("fluxes.csv"), output::flux_csv(&result.fluxes).as_bytes())?;
+                    base.join(&task.name)
+                }
+            };
+            match &job.render.sensor {
+                Sensor::Directions(_) => {
+                    for task in &job.tasks {
+                        let result = pool.install(|| render::render_task(&job, task, &log));
+                        let radiance = output::radiance_csv(&result.radiance);
+                        if stdout {
+                            let mut out = std::io::stdout().lock();
+                            if job.tasks.len() > 1 {
+                                writeln!(out, "# task {}", task.name).context("writing to stdout")?;
+                            }
+                            out.write_all(radiance.as_bytes()).context("writing to stdout")?;
+                            out.flush().context("writing to stdout")?;
+                        } else {
+                            let dir = task_dir(task);
+                            output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
+                            if !result.fluxes.is_empty() {
+                                output::write_atomic(
+                                    &dir.join("fluxes.csv"),
+                                    output::flux_csv(&result.fluxes).as_bytes(),
+                                )?;
+                            }
+                            log(&format!("wrote {}", dir.display()));
+                        }
                     }
-                    log(&format!("wrote {}", dir.display()));
+                }
+                Sensor::Image(camera) => {
+                    if stdout {
+                        anyhow::bail!(atmosim::Error::InvalidValue {
+                            file: job.file.clone(),
+                            key: "sensor.type".into(),
+                            value: "an image sensor".into(),
+                            reason: "--stdout prints the CSV of a directions sensor; images are written as files"
+                                .into(),
+                            valid: "sensor.type = \"directions\" with --stdout".into(),
+                        });
+                    }
+                    render_images(&job, camera, &pool, &task_dir, quiet)?;
                 }
             }
+        }
+        Command::Plan { job } => {
+            let job = Job::from_file(&job)?;
+            let mut out = std::io::stdout().lock();
+            plan::write_plan(&job, &mut out).context("writing to stdout")?;
         }
         Command::Transmittance {
             job,
@@ -197,6 +237,65 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             report::write_atmosphere(&job.atmosphere, format, &mut out).context("writing to stdout")?;
             out.flush().context("writing to stdout")?;
         }
+    }
+    Ok(())
+}
+
+/// Renders the image tasks of a job, skipping those already complete, with
+/// a progress bar on a terminal and plain log lines otherwise.
+fn render_images(
+    job: &Job,
+    camera: &Camera,
+    pool: &rayon::ThreadPool,
+    task_dir: &dyn Fn(&Task) -> PathBuf,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let (w, h) = camera.size();
+    let layers = (job.render.albedos.len() * job.wavelengths_nm.len()) as u64;
+    let per_task = (w * h) as u64 * layers;
+    let terminal = std::io::stderr().is_terminal() && !quiet;
+    let todo: Vec<&Task> = job
+        .tasks
+        .iter()
+        .filter(|t| {
+            let done = sky_image::is_complete(&task_dir(t), job);
+            if done && !quiet {
+                eprintln!("{}: complete (same job hash), skipped", t.name);
+            }
+            !done
+        })
+        .collect();
+    let bar = if terminal {
+        let bar = ProgressBar::new(per_task * todo.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {per_sec} ETA {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_message("pixels");
+        bar.set_draw_target(ProgressDrawTarget::stderr());
+        Some(bar)
+    } else {
+        None
+    };
+    let progress = |n: u64| {
+        if let Some(b) = &bar {
+            b.inc(n);
+        }
+    };
+    for (k, task) in todo.iter().enumerate() {
+        let log = |msg: &str| match &bar {
+            Some(b) => b.println(msg),
+            None if !quiet => eprintln!("[task {}/{}] {msg}", k + 1, todo.len()),
+            None => {}
+        };
+        let image = pool.install(|| sky_image::render(job, task, camera, &progress, &log));
+        let dir = task_dir(task);
+        let exposure = sky_image::write(&dir, job, task, camera, &image)?;
+        let note = exposure.map_or(String::new(), |e| format!(" (preview exposure {e:.4e})"));
+        log(&format!("wrote {}{note}", dir.display()));
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
     }
     Ok(())
 }

@@ -11,6 +11,12 @@ use exr::prelude::*;
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 
+/// A wavelength as an EXR layer label: `540nm`, or `337p5nm` (no dot,
+/// which would split the layer name).
+pub fn wavelength_label(lambda_nm: f64) -> String {
+    format!("{lambda_nm}nm").replace('.', "p")
+}
+
 /// A named float channel of `width × height` samples, row-major with row 0
 /// the first row of the image.
 pub struct Channel {

@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::openexr::{Channel, write_exr};
+use crate::openexr::{Channel, wavelength_label, write_exr};
 use crate::render::{Direction, Fluxes, Tally};
 use crate::transmittance::{Grid, Table as TransmittanceTable};
 
@@ -143,17 +143,17 @@ pub fn write_transmittance_exr(
     let mut channels = Vec::new();
     for (w, lambda) in wavelengths_nm.iter().enumerate() {
         channels.push(Channel {
-            name: format!("{lambda}nm.T"),
+            name: format!("{}.T", wavelength_label(*lambda)),
             samples: f32s(&table.t[w]),
         });
         channels.push(Channel {
-            name: format!("{lambda}nm.T_se"),
+            name: format!("{}.T_se", wavelength_label(*lambda)),
             samples: f32s(&table.se[w]),
         });
         if sqrt {
             let r: Vec<f64> = table.t[w].iter().map(|t| t.max(0.0).sqrt()).collect();
             channels.push(Channel {
-                name: format!("{lambda}nm.sqrtT"),
+                name: format!("{}.sqrtT", wavelength_label(*lambda)),
                 samples: f32s(&r),
             });
         }

@@ -38,10 +38,18 @@ pub struct Tally {
     pub sum: [f64; 4],
     pub sum_sq: [f64; 4],
     pub samples: u64,
+    /// Samples with a non-finite component: counted, never summed.
+    pub non_finite: u64,
 }
 
 impl Tally {
-    fn add(&mut self, s: &Stokes) {
+    /// Adds one sample (a non-finite one only to the count of such).
+    pub fn add(&mut self, s: &Stokes) {
+        if s.0.iter().any(|x| !x.is_finite()) {
+            self.non_finite += 1;
+            self.samples += 1;
+            return;
+        }
         for k in 0..4 {
             self.sum[k] += s.0[k];
             self.sum_sq[k] += s.0[k] * s.0[k];
@@ -55,15 +63,22 @@ impl Tally {
             self.sum_sq[k] += o.sum_sq[k];
         }
         self.samples += o.samples;
+        self.non_finite += o.non_finite;
     }
 
-    /// Mean per component.
+    /// Mean per component (0 without samples).
     pub fn mean(&self) -> [f64; 4] {
+        if self.samples == 0 {
+            return [0.0; 4];
+        }
         self.sum.map(|s| s / self.samples as f64)
     }
 
     /// Standard error of the mean per component.
     pub fn standard_error(&self) -> [f64; 4] {
+        if self.samples < 2 {
+            return [0.0; 4];
+        }
         let n = self.samples as f64;
         std::array::from_fn(|k| {
             let m = self.sum[k] / n;

@@ -1,0 +1,193 @@
+//! `atmosim render` with image sensors, as a user runs it: the EXR read
+//! back, previews, skipping completed tasks, `plan`, and bad image jobs.
+
+use assert_cmd::Command;
+use atmosim::openexr::read_exr;
+
+fn atmosim() -> Command {
+    Command::cargo_bin("atmosim").unwrap()
+}
+
+const JOB: &str = "[atmosphere]\nvisibility_km = [30.0, 60.0]\n[spectrum]\nwavelengths_nm = [450.0, 550.0]\n\
+                   [sun]\nelevation_deg = 20.0\n[ground]\nalbedo = [0.0, 0.5]\n\
+                   [sensor]\ntype = \"fisheye\"\nresolution = 12\n[render]\nsamples = 16\n";
+
+#[test]
+fn fisheye_job_writes_stokes_layers_with_errors_and_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), JOB).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--out", "sky"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{log}");
+    for task in ["vis030.0_elev+20.0_alt00000m", "vis060.0_elev+20.0_alt00000m"] {
+        let base = dir.path().join("sky").join(task);
+        let exr = read_exr(&base.join("image.exr")).unwrap();
+        assert_eq!((exr.width, exr.height), (12, 12));
+        for layer in ["450nm_a000", "450nm_a050", "550nm_a000", "550nm_a050"] {
+            for c in ["I", "Q", "U", "V", "I_se", "Q_se", "U_se", "V_se"] {
+                let name = format!("{layer}.{c}");
+                let ch = exr
+                    .channels
+                    .iter()
+                    .find(|x| x.name == name)
+                    .unwrap_or_else(|| panic!("{name} missing"));
+                assert!(ch.samples.iter().all(|v| v.is_finite()), "{name}");
+            }
+            let i = &exr
+                .channels
+                .iter()
+                .find(|x| x.name == format!("{layer}.I"))
+                .unwrap()
+                .samples;
+            let se = &exr
+                .channels
+                .iter()
+                .find(|x| x.name == format!("{layer}.I_se"))
+                .unwrap()
+                .samples;
+            // Centre pixel: sky radiance with a positive standard error; corner: outside the circle.
+            assert!(i[6 * 12 + 6] > 0.0 && se[6 * 12 + 6] > 0.0);
+            assert_eq!(i[0], 0.0);
+        }
+        let attr = |k: &str| {
+            exr.attributes
+                .iter()
+                .find(|(a, _)| a == k)
+                .map(|(_, v)| v.clone())
+                .unwrap_or_default()
+        };
+        assert_eq!(attr("task"), task);
+        assert_eq!(attr("units"), "radiance per unit solar irradiance, 1/sr");
+        assert!(attr("stokes_frame").starts_with("meridian frame"));
+        assert_eq!(attr("samples_per_pixel"), "16");
+        assert_eq!(attr("sun_elevation_deg"), "20");
+        assert_eq!(attr("albedos"), "0 0.5");
+        assert_eq!(attr("job_hash").len(), 16);
+        assert_eq!(attr("non_finite_samples"), "0");
+        for png in ["preview.png", "dolp.png"] {
+            let bytes = std::fs::read(base.join(png)).unwrap();
+            assert_eq!(&bytes[1..4], b"PNG");
+        }
+    }
+    // A rerun of the same job skips both tasks and changes nothing.
+    let before = std::fs::read(dir.path().join("sky/vis030.0_elev+20.0_alt00000m/image.exr")).unwrap();
+    let again = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--out", "sky"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&again.stderr);
+    assert!(again.status.success());
+    assert_eq!(log.matches("skipped").count(), 2, "{log}");
+    assert_eq!(
+        before,
+        std::fs::read(dir.path().join("sky/vis030.0_elev+20.0_alt00000m/image.exr")).unwrap()
+    );
+}
+
+#[test]
+fn absolute_units_and_the_direct_sun() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = "[spectrum]\nwavelengths_nm = [550.0]\n[sun]\nelevation_deg = 40.0\nangular_radius_deg = 0.2666\n\
+               [sensor]\ntype = \"panorama\"\nresolution = [8, 8]\n[render]\nsamples = 4\n\
+               [output]\nunits = \"absolute\"\nsun = true\npreview = false\n";
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--out", "o", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let exr = read_exr(&dir.path().join("o/image.exr")).unwrap();
+    assert!(
+        exr.attributes
+            .iter()
+            .any(|(k, v)| k == "units" && v.starts_with("W m-2 sr-1 nm-1"))
+    );
+    assert!(!dir.path().join("o/preview.png").exists());
+    let sun = std::fs::read_to_string(dir.path().join("o/sun.csv")).unwrap();
+    let row: Vec<f64> = sun
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    // Kurucz at 550 nm ≈ 1.86 W m-2 nm-1; T at 50° zenith ≈ 0.7; the disc's
+    // radiance is the irradiance over its 6.8e-5 sr.
+    assert!(row[2] > 0.5 && row[2] < 0.9, "{sun}");
+    assert!(row[3] > 0.9 && row[3] < 1.7, "{sun}");
+    assert!((row[4] * 6.8e-5 / row[3] - 1.0).abs() < 0.01, "{sun}");
+}
+
+#[test]
+fn plan_lists_every_task_with_its_cost() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), JOB).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["plan", "job.toml"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"));
+    assert!(text.contains("0,vis030.0_elev+20.0_alt00000m,30.0,20.000,0,"));
+    assert!(text.contains("1,vis060.0_elev+20.0_alt00000m"));
+    // 12×12 fisheye: the pixels reaching into the circle × 16 samples × 2 × 2.
+    let inside = (0..144)
+        .filter(|k| {
+            let (i, j) = ((k % 12) as f64, (k / 12) as f64);
+            (0..256).any(|s| {
+                let (x, y) = (
+                    i + ((s % 16) as f64 + 0.5) / 16.0 - 6.0,
+                    j + ((s / 16) as f64 + 0.5) / 16.0 - 6.0,
+                );
+                x * x + y * y <= 36.0
+            })
+        })
+        .count();
+    assert!(text.contains(&format!(",{},", inside * 16 * 4)), "{inside}: {text}");
+}
+
+#[test]
+fn bad_image_jobs_are_refused_before_anything_is_written() {
+    for (text, key) in [
+        ("[sensor]\ntype = \"fisheye\"\nresolution = 0\n", "sensor.resolution"),
+        (
+            "[sensor]\ntype = \"fisheye\"\nprojection = \"orthographic\"\n",
+            "orthographic",
+        ),
+        ("[sensor]\ntype = \"camera\"\n", "camera"),
+        (
+            "[sensor]\ntype = \"fisheye\"\nresolution = [64, 32]\n",
+            "sensor.resolution",
+        ),
+        ("[observer]\naltitude_km = 150.0\n", "observer.altitude_km"),
+        ("[sun]\nelevation_deg = [10.0, 95.0]\n", "sun.elevation_deg"),
+        ("[sun]\nelevation_deg = []\n", "sun.elevation_deg"),
+        ("[atmosphere]\nvisibility_km = []\n", "atmosphere.visibility_km"),
+        ("[observer]\naltitude_km = []\n", "observer.altitude_km"),
+        ("[ground]\nalbedo = [0.1, 1.2]\n", "ground.albedo"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("job.toml"),
+            format!("[spectrum]\nwavelengths_nm = [550.0]\n{text}"),
+        )
+        .unwrap();
+        let out = atmosim()
+            .current_dir(dir.path())
+            .args(["render", "job.toml"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{key}: {err}");
+        assert!(err.contains(key), "{key}: {err}");
+        assert!(!dir.path().join("out").exists(), "{key}: files written");
+    }
+}

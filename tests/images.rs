@@ -1,0 +1,134 @@
+//! Image sensors against the `directions` sensor and against symmetry.
+
+mod common;
+
+use atmosim::camera::{Camera, PixelFilter};
+use atmosim::film::{pixel_weights, render_layer};
+use atmosim::job::Sensor;
+use atmosim::render::{Direction, render_directions};
+use common::{Comparison, job};
+
+const SKY: &str = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
+                   [sun]\nelevation_deg = 25.0\n[ground]\nalbedo = 0.2\n";
+
+fn camera_of(text: &str) -> (atmosim::job::Job, Camera) {
+    let j = job(text);
+    let Sensor::Image(c) = j.render.sensor.clone() else {
+        panic!("not an image")
+    };
+    (j, c)
+}
+
+#[test]
+fn fisheye_pixels_agree_with_directions_runs() {
+    for projection in ["equidistant", "equisolid", "stereographic"] {
+        let (j, cam) = camera_of(&format!(
+            "{SKY}[sensor]\ntype = \"fisheye\"\nresolution = 16\nprojection = \"{projection}\"\npixel_filter = \"center\"\n"
+        ));
+        let scene = j.scene(0);
+        let weights = pixel_weights(&cam);
+        let (tallies, _) = render_layer(&scene, &cam, &weights, PixelFilter::Center, 0.0, 4000, 1, 0, &|_| {});
+        let mut cmp = Comparison::default();
+        for (i, jj) in [(8usize, 8usize), (3, 8), (8, 2), (12, 11), (5, 13)] {
+            let ray = cam.ray_at(i as f64 + 0.5, jj as f64 + 0.5).unwrap();
+            let v = ray.direction;
+            let d = Direction {
+                view_zenith_deg: v.z.acos().to_degrees(),
+                azimuth_deg: v.y.atan2(v.x).to_degrees(),
+            };
+            // Independent streams (another seed).
+            let reference = &render_directions(&scene, 0.0, &[d], 4000, 99, 0)[0];
+            let pixel = &tallies[jj * 16 + i];
+            for k in 0..3 {
+                cmp.add(
+                    || format!("{projection} pixel ({i}, {jj}) Stokes {k}"),
+                    pixel.mean()[k],
+                    pixel.standard_error()[k],
+                    reference.mean()[k],
+                    reference.standard_error()[k],
+                );
+            }
+        }
+        assert!(cmp.max_abs_z < 4.0, "{projection}: {}", cmp.worst);
+    }
+}
+
+#[test]
+fn box_filtered_pixels_average_their_solid_angle() {
+    // A coarse panorama's pixel holds the mean radiance over its solid
+    // angle: compare with the mean of many centre-filtered sub-pixels of a
+    // 4× finer panorama over the same area (solid-angle weighted).
+    let (j, coarse) = camera_of(&format!("{SKY}[sensor]\ntype = \"panorama\"\nresolution = [6, 6]\n"));
+    let scene = j.scene(0);
+    let (c_tallies, _) = render_layer(
+        &scene,
+        &coarse,
+        &pixel_weights(&coarse),
+        PixelFilter::Box,
+        0.0,
+        20_000,
+        3,
+        0,
+        &|_| {},
+    );
+    let fine = Camera::Panorama { width: 24, height: 24 };
+    let fw = pixel_weights(&fine);
+    let (f_tallies, _) = render_layer(&scene, &fine, &fw, PixelFilter::Box, 0.0, 1_500, 4, 0, &|_| {});
+    let mut cmp = Comparison::default();
+    for (ci, cj) in [(1usize, 1usize), (3, 2), (4, 4)] {
+        let (mut num, mut var, mut den) = (0.0, 0.0, 0.0);
+        for a in 0..4 {
+            for b in 0..4 {
+                let k = (cj * 4 + b) * 24 + ci * 4 + a;
+                num += fw[k] * f_tallies[k].mean()[0];
+                var += (fw[k] * f_tallies[k].standard_error()[0]).powi(2);
+                den += fw[k];
+            }
+        }
+        let c = &c_tallies[cj * 6 + ci];
+        cmp.add(
+            || format!("pixel ({ci}, {cj})"),
+            c.mean()[0],
+            c.standard_error()[0],
+            num / den,
+            var.sqrt() / den,
+        );
+    }
+    assert!(cmp.max_abs_z < 4.0, "{}", cmp.worst);
+}
+
+#[test]
+fn images_are_mirror_symmetric_about_the_sun_vertical() {
+    // The sun lies in the x–z plane: I and Q are even and U odd in the
+    // azimuth, i.e. across the image's vertical centre line.
+    for sensor in [
+        "type = \"fisheye\"\nresolution = 12\n",
+        "type = \"fisheye\"\nresolution = 12\nhemisphere = \"down\"\nprojection = \"equisolid\"\n",
+        "type = \"panorama\"\nresolution = [12, 10]\n",
+    ] {
+        let (j, cam) = camera_of(&format!("{SKY}[observer]\naltitude_km = 2.0\n[sensor]\n{sensor}"));
+        let scene = j.scene(0);
+        let weights = pixel_weights(&cam);
+        let (t, _) = render_layer(&scene, &cam, &weights, PixelFilter::Box, 2.0, 2_000, 5, 0, &|_| {});
+        let (w, h) = cam.size();
+        let mut cmp = Comparison::default();
+        for y in 0..h {
+            for x in 0..w / 2 {
+                let (a, b) = (&t[y * w + x], &t[y * w + (w - 1 - x)]);
+                if a.samples == 0 {
+                    continue;
+                }
+                for (k, sign) in [(0, 1.0), (1, 1.0), (2, -1.0)] {
+                    cmp.add(
+                        || format!("{sensor} ({x}, {y}) Stokes {k}"),
+                        a.mean()[k],
+                        a.standard_error()[k],
+                        sign * b.mean()[k],
+                        b.standard_error()[k],
+                    );
+                }
+            }
+        }
+        cmp.assert_no_outlier(&format!("mirror symmetry {sensor}"));
+    }
+}
