@@ -191,3 +191,19 @@ fn bad_image_jobs_are_refused_before_anything_is_written() {
         assert!(!dir.path().join("out").exists(), "{key}: files written");
     }
 }
+
+#[test]
+fn the_quickstart_example_renders() {
+    // The README's first command, into a temporary directory.
+    let dir = tempfile::tempdir().unwrap();
+    let job = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/quickstart.toml");
+    let out = atmosim()
+        .args(["render", job, "-q", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let exr = read_exr(&dir.path().join("image.exr")).unwrap();
+    assert_eq!((exr.width, exr.height), (96, 96));
+    assert!(dir.path().join("preview.png").exists());
+}
