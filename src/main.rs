@@ -116,10 +116,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             quiet,
         } => {
             let job = Job::from_file(&job)?;
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads.unwrap_or(0))
-                .build()
-                .context("starting worker threads")?;
+            let pool = thread_pool(threads)?;
             let log = |msg: &str| {
                 if !quiet {
                     eprintln!("{msg}");
@@ -187,10 +184,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             quiet,
         } => {
             let job = Job::from_file(&job)?;
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads.unwrap_or(0))
-                .build()
-                .context("starting worker threads")?;
+            let pool = thread_pool(threads)?;
             let base = out.unwrap_or_else(|| job.render.output_directory.clone());
             let tasks = job.transmittance_tasks();
             for (task, name) in &tasks {
@@ -298,6 +292,14 @@ fn render_images(
         b.finish_and_clear();
     }
     Ok(())
+}
+
+/// A pool of `threads` workers (all cores when `None`).
+fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .context("starting worker threads")
 }
 
 fn transmittance_table(job: &Job, task: &atmosim::job::Task) -> transmittance::Table {

@@ -88,18 +88,23 @@ fn walk_stepwise(
         if f(Segment { t0: t, t1, layer }).is_break() {
             return WalkEnd::Stopped;
         }
-        if c.boundary == layer {
-            if layer == 0 {
-                return WalkEnd::Ground { t: t1 };
-            }
-            layer -= 1;
-        } else {
-            if layer == top {
-                return WalkEnd::Top { t: t1 };
-            }
-            layer += 1;
-        }
+        layer = match cross(layer, c.boundary == layer, top, t1) {
+            Ok(next) => next,
+            Err(end) => return end,
+        };
         t = t1;
+    }
+}
+
+/// The layer entered after leaving `layer` downward (`down`) or upward at
+/// distance `t1`, or how the walk ends (ground below layer 0, top above
+/// layer `top`).
+fn cross(layer: usize, down: bool, top: usize, t1: f64) -> Result<usize, WalkEnd> {
+    match (down, layer) {
+        (true, 0) => Err(WalkEnd::Ground { t: t1 }),
+        (true, _) => Ok(layer - 1),
+        (false, l) if l == top => Err(WalkEnd::Top { t: t1 }),
+        (false, _) => Ok(layer + 1),
     }
 }
 
@@ -150,17 +155,10 @@ fn walk_spherical(
         if f(Segment { t0: t, t1, layer }).is_break() {
             return WalkEnd::Stopped;
         }
-        if down {
-            if layer == 0 {
-                return WalkEnd::Ground { t: t1 };
-            }
-            layer -= 1;
-        } else {
-            if layer == top {
-                return WalkEnd::Top { t: t1 };
-            }
-            layer += 1;
-        }
+        layer = match cross(layer, down, top, t1) {
+            Ok(next) => next,
+            Err(end) => return end,
+        };
         t = t1;
     }
 }
