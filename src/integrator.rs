@@ -40,7 +40,8 @@ use crate::sampler::Sampler;
 use crate::shell::Geometry;
 use crate::stokes::{Mueller, Stokes, StokesRotation, meridian_frame};
 use crate::sun::Sun;
-use crate::tracking::{self, FlightEnd, Ray};
+use crate::sun_depth::SunDepth;
+use crate::tracking::{self, FlightEnd, Ray, Segment};
 
 /// How shadow rays toward the sun get their transmittance (closed set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,6 +65,32 @@ pub struct Settings {
     /// flight, each with 1/K of the weight (the path goes on from one of
     /// them, picked uniformly).
     pub sun_samples_per_flight: u32,
+    /// How next-event points along a flight are chosen.
+    pub sun_sampling: SunSampling,
+}
+
+/// Where on a flight the sun is connected to (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SunSampling {
+    /// At the collision the path goes on from.
+    Collision,
+    /// At a point drawn from a density that follows the sunlit single
+    /// scattering along the flight (piecewise-constant media): far less
+    /// noise for a low or set sun, about 5× the cost per path.
+    SunAware,
+    /// `SunAware` for a sun lower than 10° above the horizon, else `Collision`.
+    Auto,
+}
+
+impl SunSampling {
+    /// Whether a sun at `zenith_deg` gets sun-aware sampling.
+    pub fn is_sun_aware(self, zenith_deg: f64) -> bool {
+        match self {
+            SunSampling::Collision => false,
+            SunSampling::SunAware => true,
+            SunSampling::Auto => zenith_deg > 80.0,
+        }
+    }
 }
 
 /// Everything a path needs at one wavelength.
@@ -74,6 +101,9 @@ pub struct Scene {
     pub sun: Sun,
     pub albedo: f64,
     pub settings: Settings,
+    /// Approximate depth toward the sun: enables sun-aware next-event
+    /// points along forced flights (see `sun_along_flight`).
+    pub sun_depth: Option<SunDepth>,
 }
 
 const INV_4PI: f64 = 0.25 * FRAC_1_PI;
@@ -124,7 +154,9 @@ impl Scene {
     fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
         let forced = self.settings.forced_collisions && self.medium.is_piecewise_constant();
         let mut segments = Vec::with_capacity(2 * self.medium.levels_km().len());
+        let mut parts = Vec::with_capacity(2 * self.medium.levels_km().len());
         loop {
+            let mut sun_done = false;
             let (flight, stratify) = if forced {
                 let f = tracking::forced_flight(
                     &self.medium,
@@ -134,11 +166,16 @@ impl Scene {
                     self.albedo > 0.0,
                     &mut segments,
                 );
+                // Sun-aware next-event estimation along the whole flight,
+                // with the throughput before the flight's own weight.
+                if self.sun_depth.is_some() && !self.order_done(path.order) {
+                    sun_done = self.sun_along_flight(path, &ray, &segments, &mut parts, sampler);
+                }
                 path.throughput = path.throughput * f.weight;
                 (
                     f.end,
                     f.forced_probability
-                        .filter(|_| self.settings.sun_samples_per_flight > 1),
+                        .filter(|_| !sun_done && self.settings.sun_samples_per_flight > 1),
                 )
             } else {
                 (tracking::delta_track(&self.medium, &self.geometry, &ray, sampler), None)
@@ -148,6 +185,7 @@ impl Scene {
                     let k_out = -ray.dir;
                     path.order += 1;
                     let c = match stratify {
+                        None if sun_done => first,
                         None => {
                             let x = ray.origin + first.t * ray.dir;
                             let coeffs = self.medium.at(first.layer, self.geometry.altitude(x));
@@ -249,6 +287,100 @@ impl Scene {
         path.roulette(sampler)
     }
 
+    /// Next-event estimation along a whole flight (its walked `segments`):
+    /// one point drawn from q(t) ∝ σ_s·P11(Θ)·e^(−τ(t))·e^(−τ̃_sun(t)),
+    /// piecewise exponential over the segments with τ̃_sun the approximate
+    /// depth toward the sun (`sun_depth`) linear inside each segment; the
+    /// contribution e^(−τ)·σ_s·[R·M/(4π)]·T_sun is divided by q. Unbiased for
+    /// the single-scattering integral along the flight whatever the quality
+    /// of τ̃_sun. Returns false (nothing done) for an endless flight.
+    fn sun_along_flight(
+        &self,
+        path: &mut Path,
+        ray: &Ray,
+        segments: &[(Segment, f64)],
+        parts: &mut Vec<FlightPart>,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let Some(depth) = &self.sun_depth else { return false };
+        let s0 = self.sun.direction;
+        let k_out = -ray.dir;
+        let cos0 = (-s0).dot(k_out);
+        parts.clear();
+        let mut tau = 0.0;
+        let rayleigh_p11 = |rho: f64| PhaseFunction::Rayleigh { depolarization: rho }.p11(cos0);
+        let mut sun1 = match segments.first() {
+            Some((seg, _)) => depth.at(ray.origin + seg.t0 * ray.dir, s0),
+            None => return true,
+        };
+        for &(seg, tau_seg) in segments {
+            if !seg.t1.is_finite() {
+                return false;
+            }
+            let z = self.geometry.altitude(ray.origin + (0.5 * (seg.t0 + seg.t1)) * ray.dir);
+            let coeffs = self.medium.at(seg.layer, z);
+            // σ_s·P11 of the mixture at the sun's centre (scalars only).
+            let c = coeffs.sigma_rayleigh * rayleigh_p11(coeffs.rayleigh_depolarization)
+                + coeffs.sigma_aerosol_sca * PhaseFunction::HenyeyGreenstein { g: coeffs.aerosol_g }.p11(cos0);
+            let sun0 = sun1;
+            sun1 = depth.at(ray.origin + seg.t1 * ray.dir, s0);
+            parts.push(FlightPart {
+                seg,
+                sun0,
+                sun1,
+                e0: tau + sun0,
+                de: tau_seg + sun1 - sun0,
+                c,
+                integral: 0.0,
+            });
+            tau += tau_seg;
+        }
+        let e_min = parts
+            .iter()
+            .map(|p| p.e0.min(p.e0 + p.de))
+            .fold(f64::INFINITY, f64::min);
+        let mut total = 0.0;
+        for p in parts.iter_mut() {
+            let h = if p.de.abs() < 1e-9 {
+                1.0
+            } else {
+                -(-p.de).exp_m1() / p.de
+            };
+            p.integral = p.c * (p.seg.t1 - p.seg.t0) * (-(p.e0 - e_min)).exp() * h;
+            total += p.integral;
+        }
+        if total.is_nan() || total <= 0.0 {
+            return true;
+        }
+        // Pick a segment, then a point in it.
+        let mut target = sampler.next_f64() * total;
+        let part = parts
+            .iter()
+            .find(|p| {
+                target -= p.integral;
+                target < 0.0 && p.integral > 0.0
+            })
+            .unwrap_or_else(|| parts.iter().rev().find(|p| p.integral > 0.0).unwrap_or(&parts[0]));
+        let v = sampler.next_f64();
+        let u = if part.de.abs() < 1e-9 {
+            v
+        } else {
+            -(-v * (-(-part.de).exp_m1())).ln_1p() / part.de
+        };
+        let len = part.seg.t1 - part.seg.t0;
+        let t = part.seg.t0 + u * len;
+        let x = ray.origin + t * ray.dir;
+        let coeffs = self.medium.at(part.seg.layer, self.geometry.altitude(x));
+        // e^(−τ(t))/q(t) = total/c · e^(τ̃_sun(t) − e_min), τ̃ linear in the segment.
+        let sun_lin = part.sun0 + (part.sun1 - part.sun0) * u;
+        let weight = total / part.c * (sun_lin - e_min).exp() * coeffs.sigma_s();
+        let before = path.throughput;
+        path.throughput = before * weight;
+        self.sun_from_scattering(path, x, part.seg.layer, k_out, &coeffs, sampler);
+        path.throughput = before;
+        true
+    }
+
     fn sun_from_scattering(
         &self,
         path: &mut Path,
@@ -325,6 +457,22 @@ impl Scene {
         let p11 = m.0[0][0];
         (m, p11)
     }
+}
+
+/// One segment of a flight as the sun-aware sampling sees it.
+#[derive(Debug, Clone, Copy)]
+struct FlightPart {
+    seg: Segment,
+    /// Approximate depth toward the sun at the segment's ends.
+    sun0: f64,
+    sun1: f64,
+    /// Exponent of q at the start, and its change over the segment.
+    e0: f64,
+    de: f64,
+    /// σ_s·P11(Θ) of the segment.
+    c: f64,
+    /// ∫ q over the segment, unnormalised.
+    integral: f64,
 }
 
 /// The state of one path.

@@ -39,6 +39,7 @@ pub mod solar;
 pub mod stats;
 pub mod stokes;
 pub mod sun;
+pub mod sun_depth;
 pub mod tracking;
 pub mod transmittance;
 pub mod visibility;

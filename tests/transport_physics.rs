@@ -144,3 +144,46 @@ fn looking_at_the_sun_through_an_empty_atmosphere_sees_nothing() {
     let t = render_directions(&j.scene(0), 0.0, j.render.directions(), 1_000, 1, 0);
     assert_eq!(t[0].mean(), [0.0; 4]);
 }
+
+#[test]
+fn sun_aware_and_collision_sun_connections_agree_for_a_low_sun() {
+    // Two unbiased estimators of the same radiances in a spherical
+    // atmosphere with aerosol, sun just above and below the horizon.
+    for elevation in [3.0, -3.0] {
+        let run = |mode: &str, seed: u64| {
+            let j = job(&format!(
+                "[spectrum]\nwavelengths_nm = [450.0]\n[sun]\nelevation_deg = {elevation:?}\n[ground]\nalbedo = 0.3\n\
+                 [observer]\naltitude_km = 1.0\n[render]\nsun_sampling = \"{mode}\"\nseed = {seed}\n"
+            ));
+            let dirs: Vec<Direction> = [
+                (0.0, 0.0),
+                (80.0, 0.0),
+                (88.0, 20.0),
+                (60.0, 120.0),
+                (95.0, 180.0),
+                (150.0, 45.0),
+            ]
+            .iter()
+            .map(|&(z, a)| Direction {
+                view_zenith_deg: z,
+                azimuth_deg: a,
+            })
+            .collect();
+            render_directions(&j.scene(0), 1.0, &dirs, 20_000, seed, 0)
+        };
+        let (a, b) = (run("collision", 1), run("sun_aware", 2));
+        let mut cmp = Comparison::default();
+        for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+            for s in 0..3 {
+                cmp.add(
+                    || format!("elevation {elevation} direction {k} Stokes {s}"),
+                    x.mean()[s],
+                    x.standard_error()[s],
+                    y.mean()[s],
+                    y.standard_error()[s],
+                );
+            }
+        }
+        cmp.assert_no_outlier(&format!("sun-aware vs collision at elevation {elevation}"));
+    }
+}

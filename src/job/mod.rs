@@ -16,6 +16,7 @@ use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
 use crate::sun::Sun;
+use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
@@ -174,12 +175,18 @@ impl Job {
 
     /// The scene of a task at wavelength index `w` and ground albedo.
     pub fn scene_for(&self, task: &Task, w: usize, albedo: f64) -> Scene {
+        let medium = Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale);
+        let settings = self.render.settings;
+        let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg);
+        let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant())
+            .then(|| SunDepth::new(&medium, &self.geometry(), task.sun.direction));
         Scene {
             geometry: self.geometry(),
-            medium: Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale),
+            medium,
             sun: task.sun,
             albedo,
-            settings: self.render.settings,
+            settings,
+            sun_depth,
         }
     }
 

@@ -190,6 +190,15 @@ pub(super) struct RawRender {
     pub(super) majorant_scale: Option<f64>,
     pub(super) forced_collisions: Option<bool>,
     pub(super) sun_samples_per_flight: Option<u32>,
+    pub(super) sun_sampling: Option<RawSunSampling>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawSunSampling {
+    Auto,
+    SunAware,
+    Collision,
 }
 
 #[derive(Debug, Default, Deserialize)]

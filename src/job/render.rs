@@ -6,11 +6,11 @@ use std::path::PathBuf;
 use super::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
-    RawSensor, RawSensorKind, RawSun, RawSunTransmittance, RawUnits,
+    RawSensor, RawSensorKind, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
 };
 use crate::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::error::Result;
-use crate::integrator::{Settings, SunTransmittance};
+use crate::integrator::{Settings, SunSampling, SunTransmittance};
 use crate::medium::MediumModel;
 use crate::render::Direction;
 
@@ -187,6 +187,11 @@ pub(super) fn resolve(
             },
             forced_collisions: render.forced_collisions.unwrap_or(true),
             sun_samples_per_flight,
+            sun_sampling: match render.sun_sampling.unwrap_or(RawSunSampling::Auto) {
+                RawSunSampling::Auto => SunSampling::Auto,
+                RawSunSampling::SunAware => SunSampling::SunAware,
+                RawSunSampling::Collision => SunSampling::Collision,
+            },
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {
             RawMedium::Layered => MediumModel::Layered,
