@@ -78,17 +78,18 @@ pub enum SunSampling {
     /// scattering along the flight (piecewise-constant media): far less
     /// noise for a low or set sun, about 5× the cost per path.
     SunAware,
-    /// `SunAware` for a sun lower than 10° above the horizon, else `Collision`.
+    /// `SunAware` in plane-parallel geometry (where it costs little) and
+    /// for a sun lower than 10° above the horizon, else `Collision`.
     Auto,
 }
 
 impl SunSampling {
     /// Whether a sun at `zenith_deg` gets sun-aware sampling.
-    pub fn is_sun_aware(self, zenith_deg: f64) -> bool {
+    pub fn is_sun_aware(self, zenith_deg: f64, plane_parallel: bool) -> bool {
         match self {
             SunSampling::Collision => false,
             SunSampling::SunAware => true,
-            SunSampling::Auto => zenith_deg > 80.0,
+            SunSampling::Auto => plane_parallel || zenith_deg > 80.0,
         }
     }
 }

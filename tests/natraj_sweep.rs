@@ -31,6 +31,8 @@ fn natraj_2009_full_sweep() {
     let (mut max_rel_i, mut max_dq, mut max_du) = (0.0f64, 0.0f64, 0.0f64);
     let mut worst_i = String::new();
     let start = std::time::Instant::now();
+    // ATMOSIM_SUN_SAMPLING=collision|sun_aware|auto (default auto).
+    let sun_sampling = std::env::var("ATMOSIM_SUN_SAMPLING").unwrap_or_else(|_| "auto".into());
     // ATMOSIM_SWEEP_CSV=path writes every comparison for analysis.
     let mut dump =
         String::from("tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref\n");
@@ -48,7 +50,7 @@ fn natraj_2009_full_sweep() {
             })
             .collect();
         let text = format!(
-            "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = 2009\n",
+            "{}[ground]\nalbedo = {albedo:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = 2009\nsun_sampling = \"{sun_sampling}\"\n",
             layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),
             mu0.acos().to_degrees()
         );

@@ -177,7 +177,8 @@ impl Job {
     pub fn scene_for(&self, task: &Task, w: usize, albedo: f64) -> Scene {
         let medium = Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale);
         let settings = self.render.settings;
-        let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg);
+        let plane_parallel = self.planet.geometry == GeometryKind::PlaneParallel;
+        let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg, plane_parallel);
         let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant())
             .then(|| SunDepth::new(&medium, &self.geometry(), task.sun.direction));
         Scene {
