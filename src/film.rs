@@ -34,11 +34,13 @@ pub fn pixel_weights(camera: &Camera) -> Vec<f64> {
         .collect()
 }
 
-/// Renders one layer: `scene` seen by `camera` from `altitude_km`, with
-/// streams keyed by (seed, key, pixel, sample). `progress` is called with
-/// the number of pixels finished (from worker threads).
+/// Renders one wavelength for every albedo of the scene: `scene` seen by
+/// `camera` from `altitude_km`, with streams keyed by (seed, key, pixel,
+/// sample); tallies `[albedo][pixel]` and the count of non-finite samples.
+/// `progress` is called with the number of pixels finished (from worker
+/// threads).
 #[allow(clippy::too_many_arguments)]
-pub fn render_layer(
+pub fn render_layers(
     scene: &Scene,
     camera: &Camera,
     weights: &[f64],
@@ -48,9 +50,9 @@ pub fn render_layer(
     seed: u64,
     key: u64,
     progress: &(dyn Fn(u64) + Sync),
-) -> (Vec<Tally>, u64) {
+) -> (Vec<Vec<Tally>>, u64) {
     let (w, _) = camera.size();
-    let tallies: Vec<Tally> = (0..weights.len())
+    let per_pixel: Vec<Vec<Tally>> = (0..weights.len())
         .into_par_iter()
         .with_min_len(4)
         .map(|k| {
@@ -68,8 +70,38 @@ pub fn render_layer(
             t
         })
         .collect();
-    let non_finite = tallies.iter().map(|t| t.non_finite).sum();
+    let non_finite = per_pixel.iter().flatten().map(|t| t.non_finite).sum();
+    let tallies = (0..scene.albedos.len())
+        .map(|a| per_pixel.iter().map(|t| t[a]).collect())
+        .collect();
     (tallies, non_finite)
+}
+
+/// [`render_layers`] for the scene's first albedo.
+#[allow(clippy::too_many_arguments)]
+pub fn render_layer(
+    scene: &Scene,
+    camera: &Camera,
+    weights: &[f64],
+    filter: PixelFilter,
+    altitude_km: f64,
+    samples: u64,
+    seed: u64,
+    key: u64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Vec<Tally>, u64) {
+    let (mut t, n) = render_layers(
+        scene,
+        camera,
+        weights,
+        filter,
+        altitude_km,
+        samples,
+        seed,
+        key,
+        progress,
+    );
+    (t.swap_remove(0), n)
 }
 
 /// Strata per side for `samples` per pixel (at most 16 × 16).
@@ -87,11 +119,11 @@ fn render_pixel(
     (i, j): (usize, usize),
     samples: u64,
     keys: [u64; 3],
-) -> Tally {
-    let mut tally = Tally::default();
+) -> Vec<Tally> {
+    let mut tallies = vec![Tally::default(); scene.albedos.len()];
     if weight <= 0.0 {
         // Entirely outside the image's circle: zero, no samples.
-        return tally;
+        return tallies;
     }
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
@@ -113,19 +145,21 @@ fn render_pixel(
                 }
             }
         };
-        let value = match camera.ray_at(x, y) {
-            None => crate::stokes::Stokes::zero(),
+        match camera.ray_at(x, y) {
+            None => tallies.iter_mut().for_each(|t| t.add(&crate::stokes::Stokes::zero())),
             Some(ray) => {
                 let l = scene.radiance_sample(altitude_km, ray.direction, ray.azimuth, &mut sampler);
-                match filter {
-                    PixelFilter::Center => l,
-                    PixelFilter::Box => l * (ray.jacobian / weight),
+                let scale = match filter {
+                    PixelFilter::Center => 1.0,
+                    PixelFilter::Box => ray.jacobian / weight,
+                };
+                for (t, v) in tallies.iter_mut().zip(l.as_slice()) {
+                    t.add(&(*v * scale));
                 }
             }
-        };
-        tally.add(&value);
+        }
     }
-    tally
+    tallies
 }
 
 #[cfg(test)]

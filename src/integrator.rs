@@ -100,7 +100,10 @@ pub struct Scene {
     pub geometry: Geometry,
     pub medium: Medium,
     pub sun: Sun,
-    pub albedo: f64,
+    /// Ground albedos, all estimated from the same paths (at most
+    /// [`MAX_ALBEDOS`]): a path with k ground reflections scores a^k times
+    /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly.
+    pub albedos: Vec<f64>,
     pub settings: Settings,
     /// Approximate depth toward the sun: enables sun-aware next-event
     /// points along forced flights (see `sun_along_flight`).
@@ -108,6 +111,23 @@ pub struct Scene {
 }
 
 const INV_4PI: f64 = 0.25 * FRAC_1_PI;
+
+/// The most ground albedos one render estimates.
+pub const MAX_ALBEDOS: usize = 8;
+
+/// One path's Stokes radiance for each albedo of the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Radiances {
+    pub values: [Stokes; MAX_ALBEDOS],
+    pub count: usize,
+}
+
+impl Radiances {
+    /// The radiances, one per albedo.
+    pub fn as_slice(&self) -> &[Stokes] {
+        &self.values[..self.count]
+    }
+}
 /// Throughput below which Russian roulette starts.
 const ROULETTE_THRESHOLD: f64 = 0.1;
 
@@ -123,16 +143,17 @@ impl Scene {
     /// One sample of the diffuse Stokes radiance arriving at the observer
     /// from viewing direction `view` (unit, observer frame), in the meridian
     /// frame of `view` (`phi_fallback` fixes it at the zenith and nadir).
-    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, phi_fallback: f64, sampler: &mut Sampler) -> Stokes {
+    pub fn radiance_sample(
+        &self,
+        altitude_km: f64,
+        view: DVec3,
+        phi_fallback: f64,
+        sampler: &mut Sampler,
+    ) -> Radiances {
         let origin = self.observer_position(altitude_km);
         let up = self.geometry.up(origin);
         let (e1, _) = meridian_frame(view, phi_fallback);
-        let mut path = Path {
-            throughput: Mueller::identity(),
-            frame_e1: e1,
-            order: 0,
-            radiance: Stokes::zero(),
-        };
+        let mut path = Path::new(e1, &self.albedos);
         let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up)) else {
             // Looking down from the ground: the ground itself at distance 0.
             if altitude_km <= self.medium.levels_km()[0] && view.dot(up) < 0.0 {
@@ -164,7 +185,7 @@ impl Scene {
                     &self.geometry,
                     &ray,
                     sampler,
-                    self.albedo > 0.0,
+                    self.reflects(),
                     &mut segments,
                 );
                 // Sun-aware next-event estimation along the whole flight,
@@ -259,10 +280,12 @@ impl Scene {
     /// Ground vertex at `x` reached by light leaving along `k_out`: NEE to
     /// the sun, then the Lambertian weight. Returns whether the path goes on.
     fn trace_from_ground(&self, path: &mut Path, x: DVec3, _k_out: DVec3, sampler: &mut Sampler) -> bool {
-        if self.albedo <= 0.0 {
+        if !self.reflects() {
             return false;
         }
         path.order += 1;
+        // One more ground reflection: every albedo's weight gains a factor a.
+        path.reflect(&self.albedos);
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
         let mu_s = s.dot(up);
@@ -276,15 +299,16 @@ impl Scene {
                 sampler,
             );
             if tr > 0.0 {
-                let f = self.albedo * FRAC_1_PI * mu_s * tr;
+                let f = FRAC_1_PI * mu_s * tr;
                 path.add_unpolarized_source(f);
             }
         }
         if self.order_done(path.order) {
             return false;
         }
-        // Lambertian continuation: BRDF·cos/pdf = a; the ground depolarises.
-        path.depolarize(self.albedo);
+        // Lambertian continuation: BRDF·cos/pdf = a, carried by the
+        // throughput (a_max) and the albedo weights; the ground depolarises.
+        path.depolarize();
         path.roulette(sampler)
     }
 
@@ -408,7 +432,7 @@ impl Scene {
         let (m, _) = self.mixture(coeffs, k_in.dot(k_out));
         // Phase matrix normalised per steradian: P/(4π).
         let column = path.rotated_column(&m, k_in, k_out, self.settings.polarized);
-        path.radiance += column * (tr * INV_4PI);
+        path.add(column * (tr * INV_4PI));
     }
 
     fn sun_transmittance(&self, ray: Ray, sampler: &mut Sampler) -> f64 {
@@ -424,6 +448,11 @@ impl Scene {
     /// same layer, as a collision lies strictly inside its layer.
     fn layer_after(&self, layer: usize, _x: DVec3, _dir: DVec3) -> usize {
         layer
+    }
+
+    /// True when some albedo reflects (paths reaching the ground go on).
+    fn reflects(&self) -> bool {
+        self.albedos.iter().any(|&a| a > 0.0)
     }
 
     fn order_done(&self, order: u32) -> bool {
@@ -483,7 +512,9 @@ struct Path {
     /// current vertex (perpendicular to its propagation direction).
     frame_e1: DVec3,
     order: u32,
-    radiance: Stokes,
+    radiance: Radiances,
+    /// (a/a_max)^k per albedo, k the ground reflections so far.
+    albedo_weights: [f64; MAX_ALBEDOS],
 }
 
 impl Path {
@@ -510,15 +541,46 @@ impl Path {
         self.frame_e1 = e1_in;
     }
 
-    /// Lambertian reflection: depolarises, scales by the albedo.
-    fn depolarize(&mut self, albedo: f64) {
-        self.throughput = self.throughput * Mueller::depolarizer(albedo);
+    fn new(frame_e1: DVec3, albedos: &[f64]) -> Path {
+        Path {
+            throughput: Mueller::identity(),
+            frame_e1,
+            order: 0,
+            radiance: Radiances {
+                values: [Stokes::zero(); MAX_ALBEDOS],
+                count: albedos.len().min(MAX_ALBEDOS),
+            },
+            albedo_weights: [1.0; MAX_ALBEDOS],
+        }
+    }
+
+    /// Lambertian reflection: depolarises (the albedo is in the weights).
+    fn depolarize(&mut self) {
+        self.throughput = self.throughput * Mueller::depolarizer(1.0);
+    }
+
+    /// A ground reflection. The throughput takes the largest albedo a_max
+    /// (so roulette and termination are shared by all albedos and a single
+    /// albedo costs what it did alone), each albedo's weight (a/a_max)^k.
+    fn reflect(&mut self, albedos: &[f64]) {
+        let a_max = albedos.iter().copied().fold(0.0, f64::max);
+        self.throughput = self.throughput * a_max;
+        for (w, a) in self.albedo_weights.iter_mut().zip(albedos) {
+            *w *= a / a_max;
+        }
+    }
+
+    /// Adds a contribution, weighted by a^k for each albedo.
+    fn add(&mut self, s: Stokes) {
+        for i in 0..self.radiance.count {
+            self.radiance.values[i] += s * self.albedo_weights[i];
+        }
     }
 
     /// Adds an unpolarised source of radiance `f` seen through the path.
     fn add_unpolarized_source(&mut self, f: f64) {
         let t = &self.throughput.0;
-        self.radiance += Stokes::new(t[0][0], t[1][0], t[2][0], t[3][0]) * f;
+        self.add(Stokes::new(t[0][0], t[1][0], t[2][0], t[3][0]) * f);
     }
 
     /// Russian roulette on T₀₀ after the second vertex.

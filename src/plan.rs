@@ -18,14 +18,15 @@ pub fn task_paths(job: &Job) -> u64 {
         // Pixels outside a fisheye's circle cost nothing.
         Sensor::Image(camera) => crate::film::pixel_weights(camera).iter().filter(|w| **w > 0.0).count() as u64,
     };
-    per_layer * spec.samples * (spec.albedos.len() * job.wavelengths_nm.len()) as u64
+    // All albedos share the paths.
+    per_layer * spec.samples * job.wavelengths_nm.len() as u64
 }
 
 /// Paths per second on one core for the first task, from about 0.2 s of
 /// rendering over directions spread on the sphere.
 pub fn calibrate(job: &Job) -> f64 {
     let task = &job.tasks[0];
-    let scene = job.scene_for(task, job.wavelengths_nm.len() / 2, job.render.albedos[0]);
+    let scene = job.scene_for(task, job.wavelengths_nm.len() / 2);
     let directions: Vec<Direction> = (0..16)
         .map(|k| Direction {
             view_zenith_deg: 5.0 + 170.0 * (k as f64 + 0.5) / 16.0,
@@ -75,7 +76,7 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
     };
     writeln!(
         out,
-        "# {}: {} tasks; each {sensor}, {} wavelengths × {} albedos × {} samples",
+        "# {}: {} tasks; each {sensor}, {} wavelengths ({} albedos from the same paths) × {} samples",
         job.file,
         job.tasks.len(),
         job.wavelengths_nm.len(),

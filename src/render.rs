@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::integrator::Scene;
+use crate::integrator::{Radiances, Scene};
 use crate::sampler::Sampler;
 use crate::stokes::Stokes;
 use crate::tracking::{self, Ray};
@@ -92,48 +92,70 @@ impl Tally {
 const FLUX_DOWN_KEY: u64 = u64::MAX - 1;
 const FLUX_UP_KEY: u64 = u64::MAX - 2;
 
-/// One estimate per sample index `i` of `f(sampler)`, summed in blocks.
-fn tally(samples: u64, keys: [u64; 3], f: impl Fn(&mut Sampler) -> Stokes + Sync) -> Tally {
+/// Tallies per albedo of one estimate per sample index `i` of `f(sampler)`,
+/// summed in blocks (fixed order: bit-identical for any thread count).
+fn tally(samples: u64, keys: [u64; 3], albedos: usize, f: impl Fn(&mut Sampler) -> Radiances + Sync) -> Vec<Tally> {
     let blocks = samples.div_ceil(BLOCK);
-    let partial: Vec<Tally> = (0..blocks)
+    let partial: Vec<Vec<Tally>> = (0..blocks)
         .into_par_iter()
         .map(|b| {
-            let mut t = Tally::default();
+            let mut t = vec![Tally::default(); albedos];
             for i in b * BLOCK..((b + 1) * BLOCK).min(samples) {
                 let mut s = Sampler::new(&[keys[0], keys[1], keys[2], i]);
-                t.add(&f(&mut s));
+                let r = f(&mut s);
+                for (ta, v) in t.iter_mut().zip(r.as_slice()) {
+                    ta.add(v);
+                }
             }
             t
         })
         .collect();
-    let mut total = Tally::default();
+    let mut total = vec![Tally::default(); albedos];
     for p in &partial {
-        total.merge(p);
+        for (t, q) in total.iter_mut().zip(p) {
+            t.merge(q);
+        }
     }
     total
 }
 
-/// Renders each direction with `samples` paths; `keys` = (seed, wavelength
-/// index) identify the streams.
+/// Renders each direction with `samples` paths for every albedo of the
+/// scene: `[albedo][direction]`. `keys` = (seed, stream key) identify the
+/// streams.
+pub fn render_directions_all(
+    scene: &Scene,
+    altitude_km: f64,
+    directions: &[Direction],
+    samples: u64,
+    seed: u64,
+    key: u64,
+) -> Vec<Vec<Tally>> {
+    let per_direction: Vec<Vec<Tally>> = directions
+        .iter()
+        .enumerate()
+        .map(|(d, dir)| {
+            let v = dir.vector();
+            let phi = dir.azimuth_deg.to_radians();
+            tally(samples, [seed, key, d as u64], scene.albedos.len(), |s| {
+                scene.radiance_sample(altitude_km, v, phi, s)
+            })
+        })
+        .collect();
+    (0..scene.albedos.len())
+        .map(|a| per_direction.iter().map(|t| t[a]).collect())
+        .collect()
+}
+
+/// [`render_directions_all`] for the scene's first albedo.
 pub fn render_directions(
     scene: &Scene,
     altitude_km: f64,
     directions: &[Direction],
     samples: u64,
     seed: u64,
-    wavelength_index: u64,
+    key: u64,
 ) -> Vec<Tally> {
-    directions
-        .iter()
-        .enumerate()
-        .map(|(d, dir)| {
-            let v = dir.vector();
-            let phi = dir.azimuth_deg.to_radians();
-            tally(samples, [seed, wavelength_index, d as u64], |s| {
-                scene.radiance_sample(altitude_km, v, phi, s)
-            })
-        })
-        .collect()
+    render_directions_all(scene, altitude_km, directions, samples, seed, key).swap_remove(0)
 }
 
 /// Fluxes at the observer level per unit E0 (libRadtran's edir, edn, eup).
@@ -150,19 +172,22 @@ pub struct Fluxes {
     pub samples: u64,
 }
 
-/// Irradiances at the observer: E = π·⟨I⟩ over cosine-distributed viewing
-/// directions in each hemisphere; the direct beam from the exact
-/// transmittance along the sun's direction.
-pub fn render_fluxes(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, wavelength_index: u64) -> Fluxes {
-    let hemisphere = |key: u64, sign: f64| {
-        tally(samples, [seed, wavelength_index, key], |s| {
+/// Irradiances at the observer for every albedo of the scene: E = π·⟨I⟩
+/// over cosine-distributed viewing directions in each hemisphere; the
+/// direct beam from the exact transmittance along the sun's direction.
+pub fn render_fluxes_all(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, key: u64) -> Vec<Fluxes> {
+    let hemisphere = |stream: u64, sign: f64| {
+        tally(samples, [seed, key, stream], scene.albedos.len(), |s| {
             let u = s.next2();
             let r = u[0].sqrt();
             let phi = 2.0 * PI * u[1];
             let z = sign * (1.0 - u[0]).max(0.0).sqrt();
             let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
-            let i = scene.radiance_sample(altitude_km, v, phi, s).0[0];
-            Stokes::new(PI * i, 0.0, 0.0, 0.0)
+            let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+            for x in l.values.iter_mut() {
+                *x = Stokes::new(PI * x.0[0], 0.0, 0.0, 0.0);
+            }
+            l
         })
     };
     let down = hemisphere(FLUX_DOWN_KEY, 1.0);
@@ -177,14 +202,22 @@ pub fn render_fluxes(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, w
         None if mu0 > 0.0 => mu0,
         _ => 0.0,
     };
-    Fluxes {
-        e_dir,
-        e_down: down.mean()[0],
-        e_down_se: down.standard_error()[0],
-        e_up: up.mean()[0],
-        e_up_se: up.standard_error()[0],
-        samples,
-    }
+    down.iter()
+        .zip(&up)
+        .map(|(d, u)| Fluxes {
+            e_dir,
+            e_down: d.mean()[0],
+            e_down_se: d.standard_error()[0],
+            e_up: u.mean()[0],
+            e_up_se: u.standard_error()[0],
+            samples,
+        })
+        .collect()
+}
+
+/// [`render_fluxes_all`] for the scene's first albedo.
+pub fn render_fluxes(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, key: u64) -> Fluxes {
+    render_fluxes_all(scene, altitude_km, samples, seed, key).swap_remove(0)
 }
 
 /// Everything a `directions` render produces.
@@ -194,10 +227,10 @@ pub struct RenderResult {
     pub fluxes: Vec<crate::output::FluxRow>,
 }
 
-/// The stream key of (task, albedo, wavelength): independent streams for
-/// every render of a job.
-pub fn stream_key(task: usize, albedo: usize, wavelength: usize) -> u64 {
-    ((task as u64) << 32) | ((albedo as u64) << 16) | wavelength as u64
+/// The stream key of (task, wavelength): independent streams for every
+/// render of a job (all albedos share their paths).
+pub fn stream_key(task: usize, wavelength: usize) -> u64 {
+    ((task as u64) << 32) | wavelength as u64
 }
 
 /// Renders a `directions` sensor for every albedo and wavelength of one
@@ -207,37 +240,41 @@ pub fn render_task(job: &crate::job::Job, task: &crate::job::Task, log: &dyn Fn(
     let directions = spec.directions();
     let altitude_km = task.observer_altitude_km;
     let mut result = RenderResult::default();
-    for (a, &albedo) in spec.albedos.iter().enumerate() {
-        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-            let start = std::time::Instant::now();
-            let scene = job.scene_for(task, w, albedo);
-            let key = stream_key(task.index, a, w);
-            let tallies = render_directions(&scene, altitude_km, directions, spec.samples, spec.seed, key);
-            for (direction, tally) in directions.iter().zip(tallies) {
+    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+        let start = std::time::Instant::now();
+        let scene = job.scene_for(task, w);
+        let key = stream_key(task.index, w);
+        let tallies = render_directions_all(&scene, altitude_km, directions, spec.samples, spec.seed, key);
+        let fluxes = spec
+            .fluxes
+            .then(|| render_fluxes_all(&scene, altitude_km, spec.samples, spec.seed, key));
+        for (a, &albedo) in spec.albedos.iter().enumerate() {
+            for (direction, tally) in directions.iter().zip(&tallies[a]) {
                 result.radiance.push(crate::output::RadianceRow {
                     wavelength_nm,
                     albedo,
                     direction: *direction,
-                    tally,
+                    tally: *tally,
                 });
             }
-            if spec.fluxes {
+            if let Some(f) = &fluxes {
                 result.fluxes.push(crate::output::FluxRow {
                     wavelength_nm,
                     albedo,
                     altitude_km,
-                    fluxes: render_fluxes(&scene, altitude_km, spec.samples, spec.seed, key),
+                    fluxes: f[a],
                 });
             }
-            let paths = spec.samples * (directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
-            let secs = start.elapsed().as_secs_f64();
-            log(&format!(
-                "{}: {wavelength_nm} nm, albedo {albedo}: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
-                task.name,
-                paths as f64 / secs,
-                rayon::current_num_threads()
-            ));
         }
+        let paths = spec.samples * (directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
+        let secs = start.elapsed().as_secs_f64();
+        log(&format!(
+            "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+            task.name,
+            spec.albedos.len(),
+            paths as f64 / secs,
+            rayon::current_num_threads()
+        ));
     }
     result
 }

@@ -8,7 +8,7 @@ use std::path::Path;
 use crate::camera::{Camera, PixelFilter};
 use crate::color::{srgb_preview, write_png};
 use crate::error::Result;
-use crate::film::{ImageLayer, pixel_weights, render_layer};
+use crate::film::{ImageLayer, pixel_weights, render_layers};
 use crate::job::{AtmosphereSource, Job, Task, Units};
 use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
@@ -40,38 +40,34 @@ pub fn render(
     let weights = pixel_weights(camera);
     let (width, height) = camera.size();
     let mut layers = Vec::new();
-    for (a, &albedo) in spec.albedos.iter().enumerate() {
-        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-            let start = std::time::Instant::now();
-            let scene = job.scene_for(task, w, albedo);
-            let key = stream_key(task.index, a, w);
-            let (tallies, non_finite) = render_layer(
-                &scene,
-                camera,
-                &weights,
-                spec.pixel_filter,
-                task.observer_altitude_km,
-                spec.samples,
-                spec.seed,
-                key,
-                progress,
-            );
+    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+        let start = std::time::Instant::now();
+        let scene = job.scene_for(task, w);
+        let key = stream_key(task.index, w);
+        let (per_albedo, non_finite) = render_layers(
+            &scene,
+            camera,
+            &weights,
+            spec.pixel_filter,
+            task.observer_altitude_km,
+            spec.samples,
+            spec.seed,
+            key,
+            progress,
+        );
+        let paths: u64 = per_albedo[0].iter().map(|t| t.samples).sum();
+        for (a, (&albedo, tallies)) in spec.albedos.iter().zip(&per_albedo).enumerate() {
             let mut mean: [Vec<f64>; 4] = Default::default();
             let mut se: [Vec<f64>; 4] = Default::default();
-            for t in &tallies {
+            for t in tallies {
                 let (m, e) = (t.mean(), t.standard_error());
                 for k in 0..4 {
                     mean[k].push(m[k]);
                     se[k].push(e[k]);
                 }
             }
-            let paths: u64 = tallies.iter().map(|t| t.samples).sum();
-            let secs = start.elapsed().as_secs_f64();
-            log(&format!(
-                "{}: {wavelength_nm} nm, albedo {albedo}: {paths} paths in {secs:.1} s ({:.0} paths/s)",
-                task.name,
-                paths as f64 / secs
-            ));
+            // The albedos share paths: count non-finite samples once.
+            let non_finite = if a == 0 { non_finite } else { 0 };
             layers.push(ImageLayer {
                 wavelength_nm,
                 albedo,
@@ -80,6 +76,13 @@ pub fn render(
                 non_finite,
             });
         }
+        let secs = start.elapsed().as_secs_f64();
+        log(&format!(
+            "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.1} s ({:.0} paths/s)",
+            task.name,
+            spec.albedos.len(),
+            paths as f64 / secs
+        ));
     }
     SkyImage { width, height, layers }
 }
@@ -193,7 +196,7 @@ fn sun_csv(job: &Job, task: &Task, camera: &Camera, scale: &dyn Fn(f64) -> f64) 
     );
     let pos = camera.point_of(task.sun.direction);
     for (w, &lambda) in job.wavelengths_nm.iter().enumerate() {
-        let scene = job.scene_for(task, w, job.render.albedos[0]);
+        let scene = job.scene_for(task, w);
         let origin = scene.observer_position(task.observer_altitude_km);
         let up = scene.geometry.up(origin);
         let t = match tracking::layer_at(

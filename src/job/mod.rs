@@ -168,13 +168,14 @@ impl Job {
             .collect()
     }
 
-    /// The scene of the first task and albedo at wavelength index `w`.
+    /// The scene of the first task at wavelength index `w`.
     pub fn scene(&self, w: usize) -> Scene {
-        self.scene_for(&self.tasks[0], w, self.render.albedos[0])
+        self.scene_for(&self.tasks[0], w)
     }
 
-    /// The scene of a task at wavelength index `w` and ground albedo.
-    pub fn scene_for(&self, task: &Task, w: usize, albedo: f64) -> Scene {
+    /// The scene of a task at wavelength index `w`, with all the job's
+    /// albedos.
+    pub fn scene_for(&self, task: &Task, w: usize) -> Scene {
         let medium = Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale);
         let settings = self.render.settings;
         let plane_parallel = self.planet.geometry == GeometryKind::PlaneParallel;
@@ -185,7 +186,7 @@ impl Job {
             geometry: self.geometry(),
             medium,
             sun: task.sun,
-            albedo,
+            albedos: self.render.albedos.clone(),
             settings,
             sun_depth,
         }

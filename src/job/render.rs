@@ -10,7 +10,7 @@ use super::raw::{
 };
 use crate::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::error::Result;
-use crate::integrator::{Settings, SunSampling, SunTransmittance};
+use crate::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
 use crate::medium::MediumModel;
 use crate::render::Direction;
 
@@ -135,6 +135,14 @@ pub(super) fn resolve(
         None => vec![0.0],
         Some(a) => axis(ctx, "ground.albedo", &a, 0.0, 1.0, "0 to 1")?,
     };
+    if albedos.len() > MAX_ALBEDOS {
+        return Err(ctx.invalid(
+            "ground.albedo",
+            format!("{} values", albedos.len()),
+            "too many albedos for one render",
+            &format!("at most {MAX_ALBEDOS} (they share the paths)"),
+        ));
+    }
 
     let sensor_raw = sensor.unwrap_or_default();
     let kind = sensor_raw.kind.unwrap_or(RawSensorKind::Directions);
