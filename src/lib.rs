@@ -14,6 +14,7 @@
 
 pub mod aerosol;
 pub mod atmosphere;
+pub mod bench;
 pub mod camera;
 pub mod color;
 pub mod constants;

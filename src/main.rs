@@ -40,6 +40,17 @@ enum Command {
         #[arg(long, value_enum, default_value_t = FormatArg::Table)]
         format: FormatArg,
     },
+    /// Time the throughput reference case (US-standard Rayleigh, 550 nm,
+    /// 12 directions, polarised); the last line is
+    /// `paths_per_second_per_core: <number>`.
+    Bench {
+        /// A short run (20,000 paths per direction instead of 400,000).
+        #[arg(long)]
+        quick: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// List a job's tasks with their cost: paths and core-hours estimated
     /// from a short calibration render of the first task.
     Plan {
@@ -171,6 +182,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     render_images(&job, camera, &pool, &task_dir, quiet)?;
                 }
             }
+        }
+        Command::Bench { quick, threads } => {
+            let pool = thread_pool(threads)?;
+            let samples = if quick { 20_000 } else { 400_000 };
+            let mut report = Vec::new();
+            pool.install(|| atmosim::bench::run(samples, &mut report))?;
+            let mut out = std::io::stdout().lock();
+            out.write_all(&report).context("writing to stdout")?;
         }
         Command::Plan { job } => {
             let job = Job::from_file(&job)?;

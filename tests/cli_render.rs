@@ -95,3 +95,25 @@ fn bad_render_keys_are_refused_before_anything_is_written() {
         assert!(!dir.path().join("out").exists());
     }
 }
+
+#[test]
+fn bench_ends_with_the_throughput_line() {
+    let out = atmosim().args(["bench", "--quick", "--threads", "1"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let last = text.lines().last().unwrap();
+    let rate: f64 = last
+        .strip_prefix("paths_per_second_per_core: ")
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(rate > 0.0);
+    assert!(text.contains("threads: 1"));
+    // 12 directions with their relative standard errors.
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()) && l.contains(','))
+            .count(),
+        12
+    );
+}
