@@ -9,8 +9,11 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, PixelFilter};
 use crate::integrator::Scene;
+use crate::render::SampleValues;
 use crate::render::Tally;
 use crate::sampler::Sampler;
+use crate::spectral::SpectralScene;
+use crate::stokes::Stokes;
 
 /// One image layer: a wavelength and an albedo, mean and standard error of
 /// I, Q, U, V per pixel (row-major, row 0 at the top).
@@ -34,47 +37,68 @@ pub fn pixel_weights(camera: &Camera) -> Vec<f64> {
         .collect()
 }
 
-/// Renders one wavelength for every albedo of the scene: `scene` seen by
-/// `camera` from `altitude_km`, with streams keyed by (seed, key, pixel,
-/// sample); tallies `[albedo][pixel]` and the count of non-finite samples.
-/// `progress` is called with the number of pixels finished (from worker
-/// threads).
-#[allow(clippy::too_many_arguments)]
-pub fn render_layers(
-    scene: &Scene,
-    camera: &Camera,
-    weights: &[f64],
-    filter: PixelFilter,
-    altitude_km: f64,
-    samples: u64,
-    seed: u64,
-    key: u64,
+/// How pixels are sampled: the camera, the pixels' mean dΩ/dA, the filter,
+/// samples per pixel and the stream keys (seed, key).
+#[derive(Clone, Copy)]
+pub struct PixelSampling<'a> {
+    pub camera: &'a Camera,
+    pub weights: &'a [f64],
+    pub filter: PixelFilter,
+    pub samples: u64,
+    pub seed: u64,
+    pub key: u64,
+}
+
+/// Renders every pixel: `radiance(direction, azimuth, sampler)` gives a
+/// sample's `count` values; returns tallies `[value][pixel]` and the count
+/// of non-finite samples. `progress` is called as pixels finish (from
+/// worker threads).
+pub fn render_pixels<R: SampleValues>(
+    sampling: &PixelSampling,
+    count: usize,
     progress: &(dyn Fn(u64) + Sync),
+    radiance: impl Fn(glam::DVec3, f64, &mut Sampler) -> R + Sync,
 ) -> (Vec<Vec<Tally>>, u64) {
-    let (w, _) = camera.size();
-    let per_pixel: Vec<Vec<Tally>> = (0..weights.len())
+    let (w, _) = sampling.camera.size();
+    let per_pixel: Vec<Vec<Tally>> = (0..sampling.weights.len())
         .into_par_iter()
         .with_min_len(4)
         .map(|k| {
-            let t = render_pixel(
-                scene,
-                camera,
-                weights[k],
-                filter,
-                altitude_km,
-                (k % w, k / w),
-                samples,
-                [seed, key, k as u64],
-            );
+            let t = render_pixel(sampling, (k % w, k / w), k, count, &radiance);
             progress(1);
             t
         })
         .collect();
-    let non_finite = per_pixel.iter().flatten().map(|t| t.non_finite).sum();
-    let tallies = (0..scene.albedos.len())
-        .map(|a| per_pixel.iter().map(|t| t[a]).collect())
-        .collect();
+    let non_finite = per_pixel.iter().map(|t| t.first().map_or(0, |x| x.non_finite)).sum();
+    let tallies = (0..count).map(|v| per_pixel.iter().map(|t| t[v]).collect()).collect();
     (tallies, non_finite)
+}
+
+/// One wavelength for every albedo of `scene` seen from `altitude_km`:
+/// tallies `[albedo][pixel]` and the count of non-finite samples.
+pub fn render_layers(
+    scene: &Scene,
+    sampling: &PixelSampling,
+    altitude_km: f64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Vec<Vec<Tally>>, u64) {
+    render_pixels(sampling, scene.albedos.len(), progress, |v, phi, s| {
+        scene.radiance_sample(altitude_km, v, phi, s)
+    })
+}
+
+/// Every wavelength and albedo of `scene` along shared spectral paths:
+/// tallies `[wavelength·albedos + albedo][pixel]`.
+pub fn render_layers_spectral(
+    scene: &SpectralScene,
+    sampling: &PixelSampling,
+    altitude_km: f64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Vec<Vec<Tally>>, u64) {
+    let count = scene.media.len() * scene.albedos.len();
+    render_pixels(sampling, count, progress, |v, phi, s| {
+        scene.radiance_sample(altitude_km, v, phi, s)
+    })
 }
 
 /// [`render_layers`] for the scene's first albedo.
@@ -90,17 +114,15 @@ pub fn render_layer(
     key: u64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Tally>, u64) {
-    let (mut t, n) = render_layers(
-        scene,
+    let sampling = PixelSampling {
         camera,
         weights,
         filter,
-        altitude_km,
         samples,
         seed,
         key,
-        progress,
-    );
+    };
+    let (mut t, n) = render_layers(scene, &sampling, altitude_km, progress);
     (t.swap_remove(0), n)
 }
 
@@ -109,27 +131,25 @@ fn strata(samples: u64) -> u64 {
     ((samples as f64).sqrt() as u64).clamp(1, 16)
 }
 
-#[allow(clippy::too_many_arguments)]
-fn render_pixel(
-    scene: &Scene,
-    camera: &Camera,
-    weight: f64,
-    filter: PixelFilter,
-    altitude_km: f64,
+fn render_pixel<R: SampleValues>(
+    sampling: &PixelSampling,
     (i, j): (usize, usize),
-    samples: u64,
-    keys: [u64; 3],
+    index: usize,
+    count: usize,
+    radiance: &impl Fn(glam::DVec3, f64, &mut Sampler) -> R,
 ) -> Vec<Tally> {
-    let mut tallies = vec![Tally::default(); scene.albedos.len()];
+    let mut tallies = vec![Tally::default(); count];
+    let weight = sampling.weights[index];
     if weight <= 0.0 {
         // Entirely outside the image's circle: zero, no samples.
         return tallies;
     }
+    let samples = sampling.samples;
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
     for s in 0..samples {
-        let mut sampler = Sampler::new(&[keys[0], keys[1], keys[2], s]);
-        let (x, y) = match filter {
+        let mut sampler = Sampler::new(&[sampling.seed, sampling.key, index as u64, s]);
+        let (x, y) = match sampling.filter {
             PixelFilter::Center => (i as f64 + 0.5, j as f64 + 0.5),
             PixelFilter::Box => {
                 let [u, v] = sampler.next2();
@@ -145,15 +165,15 @@ fn render_pixel(
                 }
             }
         };
-        match camera.ray_at(x, y) {
-            None => tallies.iter_mut().for_each(|t| t.add(&crate::stokes::Stokes::zero())),
+        match sampling.camera.ray_at(x, y) {
+            None => tallies.iter_mut().for_each(|t| t.add(&Stokes::zero())),
             Some(ray) => {
-                let l = scene.radiance_sample(altitude_km, ray.direction, ray.azimuth, &mut sampler);
-                let scale = match filter {
+                let l = radiance(ray.direction, ray.azimuth, &mut sampler);
+                let scale = match sampling.filter {
                     PixelFilter::Center => 1.0,
                     PixelFilter::Box => ray.jacobian / weight,
                 };
-                for (t, v) in tallies.iter_mut().zip(l.as_slice()) {
+                for (t, v) in tallies.iter_mut().zip(l.values()) {
                     t.add(&(*v * scale));
                 }
             }

@@ -110,7 +110,7 @@ pub struct Scene {
     pub sun_depth: Option<SunDepth>,
 }
 
-const INV_4PI: f64 = 0.25 * FRAC_1_PI;
+pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
 
 /// The most ground albedos one render estimates.
 pub const MAX_ALBEDOS: usize = 8;
@@ -129,7 +129,7 @@ impl Radiances {
     }
 }
 /// Throughput below which Russian roulette starts.
-const ROULETTE_THRESHOLD: f64 = 0.1;
+pub(crate) const ROULETTE_THRESHOLD: f64 = 0.1;
 
 impl Scene {
     /// Position of an observer at `altitude_km` (on the z axis).
@@ -247,9 +247,9 @@ impl Scene {
                         return;
                     }
                     // Sample the direction the light came from.
-                    let component = self.pick_component(&coeffs, sampler.next_f64());
+                    let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
-                    let (m, p11) = self.mixture(&coeffs, k_in.dot(k_out));
+                    let (m, p11) = mixture(&coeffs, k_in.dot(k_out));
                     let weight = m * (1.0 / p11);
                     path.scatter(&weight, k_in, k_out, self.settings.polarized);
                     if !path.roulette(sampler) {
@@ -429,7 +429,7 @@ impl Scene {
             return;
         }
         let k_in = -s;
-        let (m, _) = self.mixture(coeffs, k_in.dot(k_out));
+        let (m, _) = mixture(coeffs, k_in.dot(k_out));
         // Phase matrix normalised per steradian: P/(4π).
         let column = path.rotated_column(&m, k_in, k_out, self.settings.polarized);
         path.add(column * (tr * INV_4PI));
@@ -458,35 +458,36 @@ impl Scene {
     fn order_done(&self, order: u32) -> bool {
         self.settings.max_scattering_order != 0 && order >= self.settings.max_scattering_order
     }
+}
 
-    fn pick_component(&self, c: &PointCoefficients, u: f64) -> PhaseFunction {
-        if u * c.sigma_s() < c.sigma_rayleigh {
-            PhaseFunction::Rayleigh {
-                depolarization: c.rayleigh_depolarization,
-            }
-        } else {
-            PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }
+/// The phase function of one component, picked with probability σ_i/σ_s.
+pub(crate) fn pick_component(c: &PointCoefficients, u: f64) -> PhaseFunction {
+    if u * c.sigma_s() < c.sigma_rayleigh {
+        PhaseFunction::Rayleigh {
+            depolarization: c.rayleigh_depolarization,
         }
+    } else {
+        PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }
     }
+}
 
-    /// The σ_s-weighted mixture phase matrix and its P11 at cos Θ.
-    fn mixture(&self, c: &PointCoefficients, cos_theta: f64) -> (Mueller, f64) {
-        let sigma_s = c.sigma_s();
-        let (wr, wa) = (c.sigma_rayleigh / sigma_s, c.sigma_aerosol_sca / sigma_s);
-        let mut m = Mueller::zero();
-        if wr > 0.0 {
-            m += PhaseFunction::Rayleigh {
-                depolarization: c.rayleigh_depolarization,
-            }
-            .mueller(cos_theta)
-                * wr;
+/// The σ_s-weighted mixture phase matrix and its P11 at cos Θ.
+pub(crate) fn mixture(c: &PointCoefficients, cos_theta: f64) -> (Mueller, f64) {
+    let sigma_s = c.sigma_s();
+    let (wr, wa) = (c.sigma_rayleigh / sigma_s, c.sigma_aerosol_sca / sigma_s);
+    let mut m = Mueller::zero();
+    if wr > 0.0 {
+        m += PhaseFunction::Rayleigh {
+            depolarization: c.rayleigh_depolarization,
         }
-        if wa > 0.0 {
-            m += PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.mueller(cos_theta) * wa;
-        }
-        let p11 = m.0[0][0];
-        (m, p11)
+        .mueller(cos_theta)
+            * wr;
     }
+    if wa > 0.0 {
+        m += PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.mueller(cos_theta) * wa;
+    }
+    let p11 = m.0[0][0];
+    (m, p11)
 }
 
 /// One segment of a flight as the sun-aware sampling sees it.
@@ -603,7 +604,7 @@ impl Path {
 /// e1 for the incoming light k_in. Scattering plane normal n = k_in × k_out;
 /// e1 = n × k. For forward or backward scattering the plane is undefined and
 /// the path's own frame is kept.
-fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation, DVec3) {
+pub(crate) fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation, DVec3) {
     let cross = k_in.cross(k_out);
     let len = cross.length();
     let n = if len > 1e-12 {
@@ -618,7 +619,7 @@ fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation
 }
 
 /// A cosine-weighted direction in the hemisphere around `up`.
-fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
+pub(crate) fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
     let r = u[0].sqrt();
     let phi = 2.0 * PI * u[1];
     let (b1, b2) = orthonormal_basis(up);

@@ -37,6 +37,7 @@ pub mod sampler;
 pub mod shell;
 pub mod sky_image;
 pub mod solar;
+pub mod spectral;
 pub mod stats;
 pub mod stokes;
 pub mod sun;

@@ -7,8 +7,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::integrator::{Radiances, Scene};
+use crate::integrator::{MAX_ALBEDOS, Radiances, Scene};
 use crate::sampler::Sampler;
+use crate::spectral::{SpectralRadiances, SpectralScene};
 use crate::stokes::Stokes;
 use crate::tracking::{self, Ray};
 
@@ -92,25 +93,49 @@ impl Tally {
 const FLUX_DOWN_KEY: u64 = u64::MAX - 1;
 const FLUX_UP_KEY: u64 = u64::MAX - 2;
 
-/// Tallies per albedo of one estimate per sample index `i` of `f(sampler)`,
-/// summed in blocks (fixed order: bit-identical for any thread count).
-fn tally(samples: u64, keys: [u64; 3], albedos: usize, f: impl Fn(&mut Sampler) -> Radiances + Sync) -> Vec<Tally> {
+/// A sample's values: the Stokes vectors it scores, in a fixed order.
+pub trait SampleValues {
+    fn values(&self) -> impl Iterator<Item = &Stokes>;
+}
+
+impl SampleValues for Radiances {
+    fn values(&self) -> impl Iterator<Item = &Stokes> {
+        self.as_slice().iter()
+    }
+}
+
+impl SampleValues for SpectralRadiances {
+    /// Wavelength-major, then albedo.
+    fn values(&self) -> impl Iterator<Item = &Stokes> {
+        (0..self.wavelengths).flat_map(move |w| self.values[w * MAX_ALBEDOS..w * MAX_ALBEDOS + self.albedos].iter())
+    }
+}
+
+/// Tallies (one per value of a sample) of one estimate per sample index `i`
+/// of `f(sampler)`, summed in blocks (fixed order: bit-identical for any
+/// thread count).
+pub fn tally<R: SampleValues>(
+    samples: u64,
+    keys: [u64; 3],
+    count: usize,
+    f: impl Fn(&mut Sampler) -> R + Sync,
+) -> Vec<Tally> {
     let blocks = samples.div_ceil(BLOCK);
     let partial: Vec<Vec<Tally>> = (0..blocks)
         .into_par_iter()
         .map(|b| {
-            let mut t = vec![Tally::default(); albedos];
+            let mut t = vec![Tally::default(); count];
             for i in b * BLOCK..((b + 1) * BLOCK).min(samples) {
                 let mut s = Sampler::new(&[keys[0], keys[1], keys[2], i]);
                 let r = f(&mut s);
-                for (ta, v) in t.iter_mut().zip(r.as_slice()) {
+                for (ta, v) in t.iter_mut().zip(r.values()) {
                     ta.add(v);
                 }
             }
             t
         })
         .collect();
-    let mut total = vec![Tally::default(); albedos];
+    let mut total = vec![Tally::default(); count];
     for p in &partial {
         for (t, q) in total.iter_mut().zip(p) {
             t.merge(q);
@@ -143,6 +168,37 @@ pub fn render_directions_all(
         .collect();
     (0..scene.albedos.len())
         .map(|a| per_direction.iter().map(|t| t[a]).collect())
+        .collect()
+}
+
+/// Renders each direction with shared spectral paths: `[wavelength][albedo]
+/// [direction]`.
+pub fn render_directions_spectral(
+    scene: &SpectralScene,
+    altitude_km: f64,
+    directions: &[Direction],
+    samples: u64,
+    seed: u64,
+    key: u64,
+) -> Vec<Vec<Vec<Tally>>> {
+    let (nw, na) = (scene.media.len(), scene.albedos.len());
+    let per_direction: Vec<Vec<Tally>> = directions
+        .iter()
+        .enumerate()
+        .map(|(d, dir)| {
+            let v = dir.vector();
+            let phi = dir.azimuth_deg.to_radians();
+            tally(samples, [seed, key, d as u64], nw * na, |s| {
+                scene.radiance_sample(altitude_km, v, phi, s)
+            })
+        })
+        .collect();
+    (0..nw)
+        .map(|w| {
+            (0..na)
+                .map(|a| per_direction.iter().map(|t| t[w * na + a]).collect())
+                .collect()
+        })
         .collect()
 }
 
@@ -240,11 +296,36 @@ pub fn render_task(job: &crate::job::Job, task: &crate::job::Task, log: &dyn Fn(
     let directions = spec.directions();
     let altitude_km = task.observer_altitude_km;
     let mut result = RenderResult::default();
+    // Radiances: along shared spectral paths where possible.
+    let shared = job.spectral_scene(task).map(|scene| {
+        let start = std::time::Instant::now();
+        let t = render_directions_spectral(
+            &scene,
+            altitude_km,
+            directions,
+            spec.samples,
+            spec.seed,
+            stream_key(task.index, 0xFFFF),
+        );
+        let paths = spec.samples * directions.len() as u64;
+        let secs = start.elapsed().as_secs_f64();
+        log(&format!(
+            "{}: {} wavelengths along shared paths: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+            task.name,
+            job.wavelengths_nm.len(),
+            paths as f64 / secs,
+            rayon::current_num_threads()
+        ));
+        t
+    });
     for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
         let start = std::time::Instant::now();
         let scene = job.scene_for(task, w);
         let key = stream_key(task.index, w);
-        let tallies = render_directions_all(&scene, altitude_km, directions, spec.samples, spec.seed, key);
+        let tallies = match &shared {
+            Some(t) => t[w].clone(),
+            None => render_directions_all(&scene, altitude_km, directions, spec.samples, spec.seed, key),
+        };
         let fluxes = spec
             .fluxes
             .then(|| render_fluxes_all(&scene, altitude_km, spec.samples, spec.seed, key));
@@ -266,15 +347,18 @@ pub fn render_task(job: &crate::job::Job, task: &crate::job::Task, log: &dyn Fn(
                 });
             }
         }
-        let paths = spec.samples * (directions.len() as u64 + if spec.fluxes { 2 } else { 0 });
+        let paths = spec.samples
+            * (if shared.is_some() { 0 } else { directions.len() as u64 } + if spec.fluxes { 2 } else { 0 });
         let secs = start.elapsed().as_secs_f64();
-        log(&format!(
-            "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
-            task.name,
-            spec.albedos.len(),
-            paths as f64 / secs,
-            rayon::current_num_threads()
-        ));
+        if paths > 0 {
+            log(&format!(
+                "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+                task.name,
+                spec.albedos.len(),
+                paths as f64 / secs,
+                rayon::current_num_threads()
+            ));
+        }
     }
     result
 }

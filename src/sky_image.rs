@@ -8,10 +8,11 @@ use std::path::Path;
 use crate::camera::{Camera, PixelFilter};
 use crate::color::{srgb_preview, write_png};
 use crate::error::Result;
-use crate::film::{ImageLayer, pixel_weights, render_layers};
+use crate::film::{ImageLayer, PixelSampling, pixel_weights, render_layers, render_layers_spectral};
 use crate::job::{AtmosphereSource, Job, Task, Units};
 use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
+use crate::render::Tally;
 use crate::render::stream_key;
 use crate::solar::SolarSpectrum;
 use crate::tracking::{self, Ray};
@@ -39,52 +40,97 @@ pub fn render(
     let spec = &job.render;
     let weights = pixel_weights(camera);
     let (width, height) = camera.size();
+    let na = spec.albedos.len();
     let mut layers = Vec::new();
-    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-        let start = std::time::Instant::now();
-        let scene = job.scene_for(task, w);
-        let key = stream_key(task.index, w);
-        let (per_albedo, non_finite) = render_layers(
+    let sampling = |key| PixelSampling {
+        camera,
+        weights: &weights,
+        filter: spec.pixel_filter,
+        samples: spec.samples,
+        seed: spec.seed,
+        key,
+    };
+    let start = std::time::Instant::now();
+    if let Some(scene) = job.spectral_scene(task) {
+        // All wavelengths along shared paths.
+        let (tallies, non_finite) = render_layers_spectral(
             &scene,
-            camera,
-            &weights,
-            spec.pixel_filter,
+            &sampling(stream_key(task.index, SHARED)),
             task.observer_altitude_km,
-            spec.samples,
-            spec.seed,
-            key,
             progress,
         );
-        let paths: u64 = per_albedo[0].iter().map(|t| t.samples).sum();
-        for (a, (&albedo, tallies)) in spec.albedos.iter().zip(&per_albedo).enumerate() {
-            let mut mean: [Vec<f64>; 4] = Default::default();
-            let mut se: [Vec<f64>; 4] = Default::default();
-            for t in tallies {
-                let (m, e) = (t.mean(), t.standard_error());
-                for k in 0..4 {
-                    mean[k].push(m[k]);
-                    se[k].push(e[k]);
-                }
-            }
-            // The albedos share paths: count non-finite samples once.
-            let non_finite = if a == 0 { non_finite } else { 0 };
-            layers.push(ImageLayer {
+        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+            push_layers(
+                &mut layers,
                 wavelength_nm,
-                albedo,
-                mean,
-                se,
-                non_finite,
-            });
+                &spec.albedos,
+                &tallies[w * na..(w + 1) * na],
+                if w == 0 { non_finite } else { 0 },
+            );
         }
+        let paths: u64 = tallies[0].iter().map(|t| t.samples).sum();
         let secs = start.elapsed().as_secs_f64();
         log(&format!(
-            "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.1} s ({:.0} paths/s)",
+            "{}: {} wavelengths × {na} albedos along shared paths: {paths} paths in {secs:.1} s ({:.0} paths/s)",
             task.name,
-            spec.albedos.len(),
+            job.wavelengths_nm.len(),
             paths as f64 / secs
         ));
+    } else {
+        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+            let start = std::time::Instant::now();
+            let scene = job.scene_for(task, w);
+            let (tallies, non_finite) = render_layers(
+                &scene,
+                &sampling(stream_key(task.index, w)),
+                task.observer_altitude_km,
+                progress,
+            );
+            push_layers(&mut layers, wavelength_nm, &spec.albedos, &tallies, non_finite);
+            let paths: u64 = tallies[0].iter().map(|t| t.samples).sum();
+            let secs = start.elapsed().as_secs_f64();
+            log(&format!(
+                "{}: {wavelength_nm} nm, {na} albedos: {paths} paths in {secs:.1} s ({:.0} paths/s)",
+                task.name,
+                paths as f64 / secs
+            ));
+        }
     }
     SkyImage { width, height, layers }
+}
+
+/// The stream key's wavelength slot for shared spectral paths.
+const SHARED: usize = 0xFFFF;
+
+/// One image layer per albedo of one wavelength from its tallies
+/// `[albedo][pixel]`; the non-finite count goes to the first (the albedos
+/// share their paths).
+fn push_layers(
+    layers: &mut Vec<ImageLayer>,
+    wavelength_nm: f64,
+    albedos: &[f64],
+    tallies: &[Vec<Tally>],
+    non_finite: u64,
+) {
+    for (a, (&albedo, pixels)) in albedos.iter().zip(tallies).enumerate() {
+        let mut mean: [Vec<f64>; 4] = Default::default();
+        let mut se: [Vec<f64>; 4] = Default::default();
+        for t in pixels {
+            let (m, e) = (t.mean(), t.standard_error());
+            for k in 0..4 {
+                mean[k].push(m[k]);
+                se[k].push(e[k]);
+            }
+        }
+        let non_finite = if a == 0 { non_finite } else { 0 };
+        layers.push(ImageLayer {
+            wavelength_nm,
+            albedo,
+            mean,
+            se,
+            non_finite,
+        });
+    }
 }
 
 /// The EXR layer name of a wavelength and albedo: `540nm_a030`.

@@ -15,6 +15,7 @@ use crate::medium::Medium;
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
+use crate::spectral::SpectralScene;
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
@@ -166,6 +167,25 @@ impl Job {
                 (t, format!("{vis}_alt{:05.0}m", t.observer_altitude_km * 1000.0))
             })
             .collect()
+    }
+
+    /// The shared-spectral-path scene of a task: all wavelengths at once,
+    /// when the job has more than one, `render.shared_wavelengths` is on and
+    /// the media allow it (see `spectral`); `None` otherwise.
+    pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
+        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 {
+            return None;
+        }
+        let media: Vec<Medium> = (0..self.wavelengths_nm.len())
+            .map(|w| Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale))
+            .collect();
+        SpectralScene::supported(&media, &self.render.settings).then(|| SpectralScene {
+            geometry: self.geometry(),
+            media,
+            sun: task.sun,
+            albedos: self.render.albedos.clone(),
+            settings: self.render.settings,
+        })
     }
 
     /// The scene of the first task at wavelength index `w`.

@@ -191,6 +191,7 @@ pub(super) struct RawRender {
     pub(super) forced_collisions: Option<bool>,
     pub(super) sun_samples_per_flight: Option<u32>,
     pub(super) sun_sampling: Option<RawSunSampling>,
+    pub(super) shared_wavelengths: Option<bool>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

@@ -57,6 +57,8 @@ pub struct RenderSpec {
     pub fluxes: bool,
     /// Samples per direction or pixel.
     pub samples: u64,
+    /// Render all wavelengths along shared paths where the media allow.
+    pub shared_wavelengths: bool,
     pub seed: u64,
     pub settings: Settings,
     pub medium: MediumModel,
@@ -185,6 +187,7 @@ pub(super) fn resolve(
         pixel_filter,
         fluxes: sensor_raw.fluxes.unwrap_or(true),
         samples,
+        shared_wavelengths: render.shared_wavelengths.unwrap_or(true),
         seed: render.seed.unwrap_or(1),
         settings: Settings {
             polarized: render.polarized.unwrap_or(true),
