@@ -408,14 +408,12 @@ impl SpectralScene {
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
         let mu_s = s.dot(up);
-        if mu_s > 0.0 {
-            if let Some(tau) = self.sun_depths(x, s, 0) {
-                for (w, t) in tau.iter().enumerate() {
-                    let f = FRAC_1_PI * mu_s * (-t).exp();
-                    let m = &path.throughput[w].0;
-                    let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
-                    path.add(w, column * f);
-                }
+        if let Some(tau) = (mu_s > 0.0).then(|| self.sun_depths(x, s, 0)).flatten() {
+            for (w, t) in tau.iter().enumerate() {
+                let f = FRAC_1_PI * mu_s * (-t).exp();
+                let m = &path.throughput[w].0;
+                let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
+                path.add(w, column * f);
             }
         }
         if self.order_done(path.order) {
