@@ -47,6 +47,9 @@ pub struct SpectralScene {
     pub sun: Sun,
     pub albedos: Vec<f64>,
     pub settings: Settings,
+    /// σ_t per layer and wavelength, layer-major (`[layer·N + λ]`), so the
+    /// per-segment optical depths of all wavelengths are one contiguous loop.
+    sigma_t: Vec<f64>,
 }
 
 /// One sample's radiances: `values[λ·MAX_ALBEDOS + albedo]`.
@@ -122,6 +125,37 @@ enum Outcome {
 }
 
 impl SpectralScene {
+    /// A scene over `media` (one per wavelength, same levels).
+    pub fn new(
+        geometry: Geometry,
+        media: Vec<Medium>,
+        sun: Sun,
+        albedos: Vec<f64>,
+        settings: Settings,
+    ) -> SpectralScene {
+        let layers = media[0].levels_km().len() - 1;
+        let sigma_t = (0..layers)
+            .flat_map(|l| media.iter().map(move |m| m.sigma_maj(l)))
+            .collect();
+        SpectralScene {
+            geometry,
+            media,
+            sun,
+            albedos,
+            settings,
+            sigma_t,
+        }
+    }
+
+    /// Adds σ_t(λ)·`len` of `layer` to every wavelength's `tau`.
+    #[inline]
+    fn accumulate(&self, tau: &mut [f64], layer: usize, len: f64) {
+        let n = tau.len();
+        for (t, s) in tau.iter_mut().zip(&self.sigma_t[layer * n..(layer + 1) * n]) {
+            *t += s * len;
+        }
+    }
+
     /// Whether shared paths can render these media: piecewise-constant
     /// coefficients and forced collisions.
     pub fn supported(media: &[Medium], settings: &Settings) -> bool {
@@ -204,8 +238,9 @@ impl SpectralScene {
             if segments.iter().any(|s| !s.t1.is_finite()) {
                 return;
             }
-            for (w, m) in self.media.iter().enumerate() {
-                tau[w] = segments.iter().map(|s| m.sigma_maj(s.layer) * (s.t1 - s.t0)).sum();
+            tau.iter_mut().for_each(|t| *t = 0.0);
+            for seg in &segments {
+                self.accumulate(&mut tau, seg.layer, seg.t1 - seg.t0);
             }
             let ground_end = matches!(end, WalkEnd::Ground { .. });
             let analog = ground_end && self.reflects();
@@ -328,9 +363,7 @@ impl SpectralScene {
             if len <= 0.0 {
                 break;
             }
-            for (w, m) in self.media.iter().enumerate() {
-                tau_t[w] += m.sigma_maj(s.layer) * len;
-            }
+            self.accumulate(&mut tau_t, s.layer, len);
         }
         let density = |w: usize| {
             let sigma_t = self.media[w].sigma_maj(layer);

@@ -179,12 +179,14 @@ impl Job {
         let media: Vec<Medium> = (0..self.wavelengths_nm.len())
             .map(|w| Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale))
             .collect();
-        SpectralScene::supported(&media, &self.render.settings).then(|| SpectralScene {
-            geometry: self.geometry(),
-            media,
-            sun: task.sun,
-            albedos: self.render.albedos.clone(),
-            settings: self.render.settings,
+        SpectralScene::supported(&media, &self.render.settings).then(|| {
+            SpectralScene::new(
+                self.geometry(),
+                media,
+                task.sun,
+                self.render.albedos.clone(),
+                self.render.settings,
+            )
         })
     }
 
