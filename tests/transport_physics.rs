@@ -238,7 +238,9 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
     // 320 to 760 nm where Rayleigh spans a factor 30.
     for base in [
         "[atmosphere]\naerosol = \"continental_average\"\n[sun]\nelevation_deg = 20.0\n[observer]\naltitude_km = 0.5\n",
-        "[atmosphere]\naerosol = \"none\"\n[sun]\nelevation_deg = 2.0\n[observer]\naltitude_km = 3.0\n",
+        // A low sun: shared paths need collision sun connections there.
+        "[atmosphere]\naerosol = \"none\"\n[sun]\nelevation_deg = 2.0\n[observer]\naltitude_km = 3.0\n\
+         [render]\nsun_sampling = \"collision\"\n",
     ] {
         let wavelengths = [320.0, 400.0, 500.0, 600.0, 760.0];
         let text = format!(

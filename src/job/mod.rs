@@ -170,10 +170,18 @@ impl Job {
     }
 
     /// The shared-spectral-path scene of a task: all wavelengths at once,
-    /// when the job has more than one, `render.shared_wavelengths` is on and
-    /// the media allow it (see `spectral`); `None` otherwise.
+    /// when the job has more than one, `render.shared_wavelengths` is on, the
+    /// media allow it (see `spectral`) and the task does not get sun-aware
+    /// sun connections (which shared paths do not have, and which matter more
+    /// for a low sun); `None` otherwise.
     pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
-        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 {
+        let plane_parallel = self.planet.geometry == GeometryKind::PlaneParallel;
+        let sun_aware = self
+            .render
+            .settings
+            .sun_sampling
+            .is_sun_aware(task.sun.zenith_deg, plane_parallel);
+        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 || sun_aware {
             return None;
         }
         let media: Vec<Medium> = (0..self.wavelengths_nm.len())
