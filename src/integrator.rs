@@ -155,9 +155,14 @@ impl Scene {
         let (e1, _) = meridian_frame(view, phi_fallback);
         let mut path = Path::new(e1, &self.albedos);
         let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up)) else {
-            // Looking down from the ground: the ground itself at distance 0.
-            if altitude_km <= self.medium.levels_km()[0] && view.dot(up) < 0.0 {
-                self.trace_from_ground(&mut path, origin, -view, sampler);
+            // Looking down from the ground: the ground itself at distance 0,
+            // then the light it reflects from the sky.
+            if altitude_km <= self.medium.levels_km()[0]
+                && view.dot(up) < 0.0
+                && self.trace_from_ground(&mut path, origin, -view, sampler)
+            {
+                let dir = cosine_hemisphere(up, sampler.next2());
+                self.trace(&mut path, Ray { origin, dir, layer: 0 }, sampler);
             }
             return path.radiance;
         };

@@ -277,3 +277,37 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
         cmp.assert_no_outlier("shared spectral paths vs single wavelengths");
     }
 }
+
+#[test]
+fn looking_down_from_the_ground_sees_the_lambertian_ground() {
+    // A Lambertian ground's radiance is the same in every downward
+    // direction and equals a·E_down,total/π, E_down,total = E_dir + E_down
+    // at the ground: the ground seen from 0 km and from just above it.
+    let j = job(
+        "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
+                 [sun]\nelevation_deg = 40.0\n[ground]\nalbedo = 0.4\n",
+    );
+    let scene = j.scene(0);
+    let f = render_fluxes(&scene, 0.0, 100_000, 1, 0);
+    let expect = 0.4 * (f.e_dir + f.e_down) / std::f64::consts::PI;
+    let expect_se = 0.4 * f.e_down_se / std::f64::consts::PI;
+    let dirs = [
+        Direction {
+            view_zenith_deg: 180.0,
+            azimuth_deg: 0.0,
+        },
+        Direction {
+            view_zenith_deg: 120.0,
+            azimuth_deg: 70.0,
+        },
+    ];
+    for t in render_directions(&scene, 0.0, &dirs, 50_000, 2, 0) {
+        let (m, se) = (t.mean()[0], t.standard_error()[0]);
+        assert!(
+            (m - expect).abs() < 4.0 * (se * se + expect_se * expect_se).sqrt(),
+            "{m} ± {se} vs {expect} ± {expect_se}"
+        );
+        // Depolarising ground: no polarisation at the ground itself.
+        assert!(t.mean()[1].abs() < 4.0 * t.standard_error()[1] + 1e-12);
+    }
+}
