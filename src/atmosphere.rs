@@ -161,6 +161,19 @@ impl LayerShape {
         };
         (r.max(1.0) / exp_mean(r), ozone)
     }
+
+    /// Lower bounds of the two factors over the layer.
+    pub fn min_factors(&self) -> (f64, f64) {
+        let (x0, x1) = self.o3_mixing;
+        let r = self.air_ratio;
+        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
+        let ozone = if mean > 0.0 {
+            x0.min(x1) * r.min(1.0) / mean
+        } else {
+            1.0
+        };
+        (r.min(1.0) / exp_mean(r), ozone)
+    }
 }
 
 impl Atmosphere {

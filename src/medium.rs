@@ -107,6 +107,36 @@ impl Medium {
         }
     }
 
+    /// The layer's mean σ_t (km⁻¹): the control of residual ratio tracking.
+    pub fn layer_sigma_t(&self, i: usize) -> f64 {
+        self.sigma_t_layer[i]
+    }
+
+    /// A bound on |σ_t(z) − mean σ_t| over layer `i` (0 for `layered`).
+    pub fn residual_bound(&self, i: usize) -> f64 {
+        match &self.shapes {
+            None => 0.0,
+            Some(s) => {
+                let o = &self.layers[i];
+                let (hr, ho) = s[i].max_factors();
+                let (lr, lo) = s[i].min_factors();
+                let hi = o.sigma_rayleigh * hr + o.sigma_absorption * ho + o.sigma_aerosol_ext;
+                let lo = o.sigma_rayleigh * lr + o.sigma_absorption * lo + o.sigma_aerosol_ext;
+                let mean = self.sigma_t_layer[i];
+                (hi - mean).max(mean - lo).max(0.0)
+            }
+        }
+    }
+
+    /// The same medium with majorants for the residual σ_t − σ̄ (see
+    /// [`Medium::residual_bound`]), for residual ratio tracking.
+    pub fn with_residual_majorants(&self, bounds: Vec<f64>) -> Medium {
+        Medium {
+            sigma_maj: bounds,
+            ..self.clone()
+        }
+    }
+
     /// Layer boundaries (km), ascending from the ground.
     pub fn levels_km(&self) -> &[f64] {
         &self.levels_km

@@ -240,6 +240,7 @@ impl OneOrMany {
 #[serde(rename_all = "snake_case")]
 pub(super) enum RawEstimator {
     RatioTracking,
+    ResidualRatioTracking,
     Analytic,
 }
 

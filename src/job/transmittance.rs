@@ -86,6 +86,7 @@ pub(super) fn resolve(
         grid,
         estimator: match raw.estimator.unwrap_or(RawEstimator::RatioTracking) {
             RawEstimator::RatioTracking => Estimator::RatioTracking,
+            RawEstimator::ResidualRatioTracking => Estimator::ResidualRatioTracking,
             RawEstimator::Analytic => Estimator::Analytic,
         },
         samples,
