@@ -393,6 +393,23 @@ pub fn optical_depth(medium: &Medium, geometry: &Geometry, ray: &Ray) -> (f64, W
     (tau, end)
 }
 
+/// Optical depth along `ray` from its origin to distance `length` (km).
+pub fn optical_depth_to(medium: &Medium, geometry: &Geometry, ray: &Ray, length: f64) -> f64 {
+    let mut tau = 0.0;
+    walk(geometry, medium.levels_km(), ray, |seg| {
+        let t1 = seg.t1.min(length);
+        if t1 > seg.t0 {
+            tau += medium.segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, t1);
+        }
+        if seg.t1 >= length {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    tau
+}
+
 /// Exact transmittance from the ray's origin to the top (0 if the ray hits
 /// the ground).
 pub fn analytic_transmittance(medium: &Medium, geometry: &Geometry, ray: &Ray) -> f64 {
@@ -599,18 +616,7 @@ mod tests {
             assert!(matches!(f.end, FlightEnd::Collided(_)));
         }
         for dist in [0.5, 2.0, 10.0] {
-            let mut tau = 0.0;
-            walk(&g, m.levels_km(), &ray, |seg| {
-                let t1 = seg.t1.min(dist);
-                if t1 > seg.t0 {
-                    tau += m.segment_optical_depth(&g, ray.origin, ray.dir, seg.layer, seg.t0, t1);
-                }
-                if seg.t1 >= dist {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
-                }
-            });
+            let tau = optical_depth_to(&m, &g, &ray, dist);
             let exact = (-tau).exp() - (-tau_exit).exp();
             let (mean, se, _) = mean_se(flights.iter().map(|f| match f.end {
                 FlightEnd::Collided(c) if c.t > dist => f.weight,
@@ -654,18 +660,7 @@ mod tests {
             })
             .collect();
         for dist in [1.0, 5.0, 20.0] {
-            let mut tau = 0.0;
-            walk(&g, m.levels_km(), &ray, |seg| {
-                let t1 = seg.t1.min(dist);
-                if t1 > seg.t0 {
-                    tau += m.segment_optical_depth(&g, ray.origin, ray.dir, seg.layer, seg.t0, t1);
-                }
-                if seg.t1 >= dist {
-                    ControlFlow::Break(())
-                } else {
-                    ControlFlow::Continue(())
-                }
-            });
+            let tau = optical_depth_to(&m, &g, &ray, dist);
             let p = (-tau).exp();
             let frac = ts.iter().filter(|&&t| t > dist).count() as f64 / n as f64;
             let se = (p * (1.0 - p) / n as f64).sqrt();

@@ -170,22 +170,8 @@ pub struct Table {
     pub blocked: Vec<bool>,
 }
 
-/// Optical depth along `ray` up to `length` (km).
-pub fn optical_depth_to(medium: &Medium, geometry: &Geometry, ray: &Ray, length: f64) -> f64 {
-    let mut tau = 0.0;
-    tracking::walk(geometry, medium.levels_km(), ray, |seg| {
-        let t1 = seg.t1.min(length);
-        if t1 > seg.t0 {
-            tau += medium.segment_optical_depth(geometry, ray.origin, ray.dir, seg.layer, seg.t0, t1);
-        }
-        if seg.t1 >= length {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    });
-    tau
-}
+/// Optical depth along `ray` up to `length` (km): see [`tracking::optical_depth_to`].
+pub use crate::tracking::optical_depth_to;
 
 /// Ratio tracking of every wavelength at once along `ray` up to `length`:
 /// tentative collisions against `majorant` (whose σ_maj bounds every
