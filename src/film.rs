@@ -27,6 +27,28 @@ pub struct ImageLayer {
     pub non_finite: u64,
 }
 
+impl ImageLayer {
+    /// A layer from its pixels' tallies.
+    pub fn from_tallies(wavelength_nm: f64, albedo: f64, pixels: &[Tally], non_finite: u64) -> ImageLayer {
+        let mut mean: [Vec<f64>; 4] = Default::default();
+        let mut se: [Vec<f64>; 4] = Default::default();
+        for t in pixels {
+            let (m, e) = (t.mean(), t.standard_error());
+            for k in 0..4 {
+                mean[k].push(m[k]);
+                se[k].push(e[k]);
+            }
+        }
+        ImageLayer {
+            wavelength_nm,
+            albedo,
+            mean,
+            se,
+            non_finite,
+        }
+    }
+}
+
 /// Mean dΩ/dA of every pixel of a camera (0 for pixels outside a fisheye's
 /// circle); computed once per image.
 pub fn pixel_weights(camera: &Camera) -> Vec<f64> {
@@ -59,19 +81,50 @@ pub fn render_pixels<R: SampleValues>(
     progress: &(dyn Fn(u64) + Sync),
     radiance: impl Fn(glam::DVec3, f64, &mut Sampler) -> R + Sync,
 ) -> (Vec<Vec<Tally>>, u64) {
+    let mut per_pixel = vec![Tally::default(); sampling.weights.len() * count];
+    render_pixels_into(sampling, 0..sampling.samples, &mut per_pixel, count, progress, radiance);
+    split_values(&per_pixel, count)
+}
+
+/// Adds the samples `range` (sample indices, the same for every pixel) of
+/// every pixel to `per_pixel` (pixel-major: `count` tallies per pixel).
+/// Each pixel's tallies run in sample order, so adding 0..a and then a..b
+/// gives bit for bit what adding 0..b at once gives. `progress` gets the
+/// paths traced, as pixels finish.
+pub fn render_pixels_into<R: SampleValues>(
+    sampling: &PixelSampling,
+    range: std::ops::Range<u64>,
+    per_pixel: &mut [Tally],
+    count: usize,
+    progress: &(dyn Fn(u64) + Sync),
+    radiance: impl Fn(glam::DVec3, f64, &mut Sampler) -> R + Sync,
+) {
     let (w, _) = sampling.camera.size();
-    let per_pixel: Vec<Vec<Tally>> = (0..sampling.weights.len())
-        .into_par_iter()
+    per_pixel
+        .par_chunks_mut(count)
         .with_min_len(4)
-        .map(|k| {
-            let t = render_pixel(sampling, (k % w, k / w), k, count, &radiance);
-            progress(1);
-            t
-        })
+        .enumerate()
+        .for_each(|(k, tallies)| {
+            if render_pixel(sampling, (k % w, k / w), k, range.clone(), tallies, &radiance) {
+                progress(range.end - range.start);
+            }
+        });
+}
+
+/// Pixel-major tallies (`count` per pixel) as `[value][pixel]`, and the
+/// count of non-finite samples (those of the first value: every value of a
+/// sample shares its path).
+pub fn split_values(per_pixel: &[Tally], count: usize) -> (Vec<Vec<Tally>>, u64) {
+    let non_finite = per_pixel.iter().step_by(count.max(1)).map(|t| t.non_finite).sum();
+    let tallies = (0..count)
+        .map(|v| per_pixel.iter().skip(v).step_by(count).copied().collect())
         .collect();
-    let non_finite = per_pixel.iter().map(|t| t.first().map_or(0, |x| x.non_finite)).sum();
-    let tallies = (0..count).map(|v| per_pixel.iter().map(|t| t[v]).collect()).collect();
     (tallies, non_finite)
+}
+
+/// Pixels that are traced (inside a fisheye's circle).
+pub fn active_pixels(weights: &[f64]) -> u64 {
+    weights.iter().filter(|w| **w > 0.0).count() as u64
 }
 
 /// One wavelength for every albedo of `scene` seen from `altitude_km`:
@@ -131,23 +184,24 @@ fn strata(samples: u64) -> u64 {
     ((samples as f64).sqrt() as u64).clamp(1, 16)
 }
 
+/// Adds samples `range` of one pixel to its `tallies`; false for a pixel
+/// entirely outside the image's circle (zero, no samples).
 fn render_pixel<R: SampleValues>(
     sampling: &PixelSampling,
     (i, j): (usize, usize),
     index: usize,
-    count: usize,
+    range: std::ops::Range<u64>,
+    tallies: &mut [Tally],
     radiance: &impl Fn(glam::DVec3, f64, &mut Sampler) -> R,
-) -> Vec<Tally> {
-    let mut tallies = vec![Tally::default(); count];
+) -> bool {
     let weight = sampling.weights[index];
     if weight <= 0.0 {
-        // Entirely outside the image's circle: zero, no samples.
-        return tallies;
+        return false;
     }
     let samples = sampling.samples;
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
-    for s in 0..samples {
+    for s in range {
         let mut sampler = Sampler::new(&[sampling.seed, sampling.key, index as u64, s]);
         let (x, y) = match sampling.filter {
             PixelFilter::Center => (i as f64 + 0.5, j as f64 + 0.5),
@@ -179,7 +233,7 @@ fn render_pixel<R: SampleValues>(
             }
         }
     }
-    tallies
+    true
 }
 
 #[cfg(test)]

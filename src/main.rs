@@ -8,14 +8,17 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 
-use atmosim::job::Job;
 use std::io::IsTerminal;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
-use atmosim::camera::Camera;
-use atmosim::job::{Sensor, Task};
+use atmosim::checkpoint::{self, StateFile};
+use atmosim::job::{Job, Sensor, Task};
 use atmosim::medium::Medium;
-use atmosim::sky_image;
-use atmosim::{output, plan, render, report, transmittance};
+use atmosim::shard::Shard;
+use atmosim::task_output::{self, RunInfo};
+use atmosim::unit::{self, Control, Layout, Outcome, UnitState};
+use atmosim::{merge, output, plan, render, report, transmittance};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Parser)]
@@ -56,6 +59,35 @@ enum Command {
     Plan {
         /// Job file (TOML).
         job: PathBuf,
+        /// Write a SLURM sbatch script for a job array over every unit
+        /// (task × shard) to OUT/slurm/render.sbatch instead.
+        #[arg(long)]
+        slurm: bool,
+        /// Shards per task (with --slurm): each task's samples split into N units.
+        #[arg(long, default_value_t = 1, requires = "slurm")]
+        shards: u64,
+        /// Wall time per unit, HH:MM:SS (with --slurm; default: twice the
+        /// calibrated estimate plus 10 minutes).
+        #[arg(long, requires = "slurm")]
+        time: Option<String>,
+        /// CPUs per unit (with --slurm).
+        #[arg(long, default_value_t = 4, requires = "slurm")]
+        cpus: usize,
+        /// Output directory (default: the job's `[output] directory`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Minutes between checkpoints of each unit (with --slurm).
+        #[arg(long, default_value_t = 10.0, requires = "slurm")]
+        checkpoint_every: f64,
+    },
+    /// Combine the shards (`render --shard K/N`) of every task under an
+    /// output directory into the tasks' final files.
+    Merge {
+        /// The job's output directory.
+        out: PathBuf,
+        /// No progress lines on stderr.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Transmittance tables T(altitude, ground distance) from the observer,
     /// per task (visibility × observer altitude), all wavelengths at once:
@@ -83,7 +115,7 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print the radiance CSV on stdout instead of writing files.
-        #[arg(long)]
+        #[arg(long, conflicts_with_all = ["shard", "resume"])]
         stdout: bool,
         /// Worker threads (default: all cores).
         #[arg(long)]
@@ -91,6 +123,24 @@ enum Command {
         /// No progress lines on stderr.
         #[arg(long, short)]
         quiet: bool,
+        /// Render only task I (from 0, in the order `plan` lists them);
+        /// `env` takes I from $SLURM_ARRAY_TASK_ID.
+        #[arg(long, value_name = "I|env")]
+        task: Option<String>,
+        /// Render only shard K of N of each task's samples, into
+        /// shards/K-of-N.shard for `atmosim merge`.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<Shard>,
+        /// Continue interrupted units from their checkpoints.
+        #[arg(long)]
+        resume: bool,
+        /// Minutes between checkpoints (0: none; a stop by SIGTERM or
+        /// Ctrl-C always writes one).
+        #[arg(long, value_name = "MINUTES", default_value_t = 10.0)]
+        checkpoint_every: f64,
+        /// Render tasks again that are already complete.
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -106,6 +156,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // A closed pipe (`atmosim … | head`) is not an error.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        // Stopped by a signal after a checkpoint: exit as the signal would.
+        Err(e) if e.downcast_ref::<Interrupted>().is_some() => {
+            let sig = e.downcast_ref::<Interrupted>().map_or(15, |i| i.0);
+            ExitCode::from((128 + sig).clamp(0, 255) as u8)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             let user = e
@@ -125,62 +180,52 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             stdout,
             threads,
             quiet,
+            task,
+            shard,
+            resume,
+            checkpoint_every,
+            force,
         } => {
             let job = Job::from_file(&job)?;
+            if !(checkpoint_every.is_finite() && checkpoint_every >= 0.0) {
+                anyhow::bail!(atmosim::Error::InvalidValue {
+                    file: "command line".into(),
+                    key: "--checkpoint-every".into(),
+                    value: format!("{checkpoint_every}"),
+                    reason: "not a number of minutes".into(),
+                    valid: "0 (no periodic checkpoints) or more minutes".into(),
+                });
+            }
+            let tasks: Vec<&Task> = match task {
+                Some(t) => vec![&job.tasks[task_index(&job, &t)?]],
+                None => job.tasks.iter().collect(),
+            };
             let pool = thread_pool(threads)?;
-            let log = |msg: &str| {
+            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
+            if stdout {
+                return render_stdout(&job, &tasks, &pool, quiet);
+            }
+            let options = UnitOptions {
+                shard: shard.unwrap_or(Shard::WHOLE),
+                resume,
+                force,
+                checkpoint_every: (checkpoint_every > 0.0)
+                    .then(|| std::time::Duration::from_secs_f64(checkpoint_every * 60.0)),
+                quiet,
+            };
+            render_units(&job, &tasks, &base, &pool, &options)?;
+        }
+        Command::Merge { out, quiet } => {
+            let merged = atmosim::merge::merge(&out, &|msg: &str| {
                 if !quiet {
                     eprintln!("{msg}");
                 }
-            };
-            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
-            // One task: the files go in the output directory itself; a grid:
-            // one sub-directory per task.
-            let task_dir = |task: &Task| {
-                if job.tasks.len() == 1 {
-                    base.clone()
-                } else {
-                    base.join(&task.name)
-                }
-            };
-            match &job.render.sensor {
-                Sensor::Directions(_) => {
-                    for task in &job.tasks {
-                        let result = pool.install(|| render::render_task(&job, task, &log));
-                        let radiance = output::radiance_csv(&result.radiance);
-                        if stdout {
-                            let mut out = std::io::stdout().lock();
-                            if job.tasks.len() > 1 {
-                                writeln!(out, "# task {}", task.name).context("writing to stdout")?;
-                            }
-                            out.write_all(radiance.as_bytes()).context("writing to stdout")?;
-                            out.flush().context("writing to stdout")?;
-                        } else {
-                            let dir = task_dir(task);
-                            output::write_atomic(&dir.join("radiance.csv"), radiance.as_bytes())?;
-                            if !result.fluxes.is_empty() {
-                                output::write_atomic(
-                                    &dir.join("fluxes.csv"),
-                                    output::flux_csv(&result.fluxes).as_bytes(),
-                                )?;
-                            }
-                            log(&format!("wrote {}", dir.display()));
-                        }
-                    }
-                }
-                Sensor::Image(camera) => {
-                    if stdout {
-                        anyhow::bail!(atmosim::Error::InvalidValue {
-                            file: job.file.clone(),
-                            key: "sensor.type".into(),
-                            value: "an image sensor".into(),
-                            reason: "--stdout prints the CSV of a directions sensor; images are written as files"
-                                .into(),
-                            valid: "sensor.type = \"directions\" with --stdout".into(),
-                        });
-                    }
-                    render_images(&job, camera, &pool, &task_dir, quiet)?;
-                }
+            })?;
+            if !quiet {
+                eprintln!(
+                    "merged {} tasks × {} shards of job {}",
+                    merged.tasks, merged.shards, merged.job_hash
+                );
             }
         }
         Command::Bench { quick, threads } => {
@@ -191,10 +236,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut out = std::io::stdout().lock();
             out.write_all(&report).context("writing to stdout")?;
         }
-        Command::Plan { job } => {
-            let job = Job::from_file(&job)?;
-            let mut out = std::io::stdout().lock();
-            plan::write_plan(&job, &mut out).context("writing to stdout")?;
+        Command::Plan {
+            job: job_path,
+            slurm,
+            shards,
+            time,
+            cpus,
+            out,
+            checkpoint_every,
+        } => {
+            let job = Job::from_file(&job_path)?;
+            if slurm {
+                write_slurm(&job, &job_path, out, shards, time, cpus, checkpoint_every)?;
+            } else {
+                let mut out = std::io::stdout().lock();
+                plan::write_plan(&job, &mut out).context("writing to stdout")?;
+            }
         }
         Command::Transmittance {
             job,
@@ -254,62 +311,437 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Renders the image tasks of a job, skipping those already complete, with
-/// a progress bar on a terminal and plain log lines otherwise.
-fn render_images(
-    job: &Job,
-    camera: &Camera,
-    pool: &rayon::ThreadPool,
-    task_dir: &dyn Fn(&Task) -> PathBuf,
+/// How `render` runs its units.
+struct UnitOptions {
+    shard: Shard,
+    resume: bool,
+    force: bool,
+    checkpoint_every: Option<std::time::Duration>,
     quiet: bool,
-) -> anyhow::Result<()> {
-    let (w, h) = camera.size();
-    let layers = (job.render.albedos.len() * job.wavelengths_nm.len()) as u64;
-    let per_task = (w * h) as u64 * layers;
-    let terminal = std::io::stderr().is_terminal() && !quiet;
-    let todo: Vec<&Task> = job
-        .tasks
-        .iter()
-        .filter(|t| {
-            let done = sky_image::is_complete(&task_dir(t), job);
-            if done && !quiet {
-                eprintln!("{}: complete (same job hash), skipped", t.name);
-            }
-            !done
-        })
-        .collect();
-    let bar = if terminal {
-        let bar = ProgressBar::new(per_task * todo.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {per_sec} ETA {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_message("pixels");
-        bar.set_draw_target(ProgressDrawTarget::stderr());
-        Some(bar)
-    } else {
-        None
+}
+
+/// Set by SIGTERM or SIGINT: stop after the current wave, with a checkpoint.
+static STOP: AtomicBool = AtomicBool::new(false);
+/// The signal that set [`STOP`].
+static SIGNAL: AtomicUsize = AtomicUsize::new(0);
+
+/// A render stopped by a signal after writing its checkpoint; the process
+/// exits with 128 + the signal's number, as if killed by it.
+#[derive(Debug)]
+struct Interrupted(i32);
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "stopped by signal {}", self.0)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// The first SIGTERM or SIGINT asks for a clean stop; a second one exits at once.
+fn catch_signals() -> anyhow::Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    for sig in [SIGTERM, SIGINT] {
+        signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, &STOP)
+            .context("installing signal handlers")?;
+        signal_hook::flag::register_usize(sig, &SIGNAL, sig as usize).context("installing signal handlers")?;
+        signal_hook::flag::register(sig, &STOP).context("installing signal handlers")?;
+    }
+    Ok(())
+}
+
+/// The task index of `--task`: a number or `env` ($SLURM_ARRAY_TASK_ID).
+fn task_index(job: &Job, arg: &str) -> anyhow::Result<usize> {
+    let invalid = |value: String, reason: &str| atmosim::Error::InvalidValue {
+        file: "command line".into(),
+        key: "--task".into(),
+        value,
+        reason: reason.into(),
+        valid: format!(
+            "a task index from 0 to {} (as `atmosim plan` lists them) or `env`",
+            job.tasks.len() - 1
+        ),
     };
-    let progress = |n: u64| {
-        if let Some(b) = &bar {
-            b.inc(n);
+    let text = if arg == "env" {
+        std::env::var("SLURM_ARRAY_TASK_ID").map_err(|_| {
+            invalid(
+                "env".into(),
+                "$SLURM_ARRAY_TASK_ID is not set (not inside a SLURM job array)",
+            )
+        })?
+    } else {
+        arg.to_string()
+    };
+    let i: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| invalid(text.clone(), "not a task index"))?;
+    if i >= job.tasks.len() {
+        anyhow::bail!(invalid(text, &format!("the job has {} tasks", job.tasks.len())));
+    }
+    Ok(i)
+}
+
+/// `render --stdout`: the radiance CSV of a `directions` sensor.
+fn render_stdout(job: &Job, tasks: &[&Task], pool: &rayon::ThreadPool, quiet: bool) -> anyhow::Result<()> {
+    if let Sensor::Image(_) = job.render.sensor {
+        anyhow::bail!(atmosim::Error::InvalidValue {
+            file: job.file.clone(),
+            key: "sensor.type".into(),
+            value: "an image sensor".into(),
+            reason: "--stdout prints the CSV of a directions sensor; images are written as files".into(),
+            valid: "sensor.type = \"directions\" with --stdout".into(),
+        });
+    }
+    let log = |msg: &str| {
+        if !quiet {
+            eprintln!("{msg}");
         }
     };
-    for (k, task) in todo.iter().enumerate() {
-        let log = |msg: &str| match &bar {
-            Some(b) => b.println(msg),
-            None if !quiet => eprintln!("[task {}/{}] {msg}", k + 1, todo.len()),
-            None => {}
+    let mut out = std::io::stdout().lock();
+    for task in tasks {
+        let result = pool.install(|| render::render_task(job, task, &log));
+        if job.tasks.len() > 1 {
+            writeln!(out, "# task {}", task.name).context("writing to stdout")?;
+        }
+        out.write_all(output::radiance_csv(&result.radiance).as_bytes())
+            .context("writing to stdout")?;
+        out.flush().context("writing to stdout")?;
+    }
+    Ok(())
+}
+
+/// One unit to render: a task, where its files go, its layout and its
+/// state (fresh or from a checkpoint).
+struct Unit<'a> {
+    task: &'a Task,
+    dir: PathBuf,
+    layout: Layout,
+    state: UnitState,
+}
+
+/// Renders `options.shard` of every task in `tasks`: skips finished units,
+/// resumes from checkpoints (`--resume`), checkpoints on the interval and
+/// on SIGTERM/SIGINT, and writes the final files (a whole task) or the
+/// shard's file.
+fn render_units(
+    job: &Job,
+    tasks: &[&Task],
+    base: &Path,
+    pool: &rayon::ThreadPool,
+    options: &UnitOptions,
+) -> anyhow::Result<()> {
+    catch_signals()?;
+    let shard = options.shard;
+    let log = |msg: &str| {
+        if !options.quiet {
+            eprintln!("{msg}");
+        }
+    };
+    // What is left to do.
+    let mut units = Vec::new();
+    for &task in tasks {
+        let dir = merge::task_dir(base, job, task);
+        let finished = if shard.is_whole() {
+            task_output::is_complete(&dir, job)
+        } else {
+            StateFile::read(&checkpoint::shard_path(&dir, shard)).is_ok_and(|f| f.state.job_hash == job.hash)
         };
-        let image = pool.install(|| sky_image::render(job, task, camera, &progress, &log));
-        let dir = task_dir(task);
-        let exposure = sky_image::write(&dir, job, task, camera, &image)?;
-        let note = exposure.map_or(String::new(), |e| format!(" (preview exposure {e:.4e})"));
-        log(&format!("wrote {}{note}", dir.display()));
+        if finished && !options.force {
+            log(&format!(
+                "{} (shard {shard}): complete (same job hash), skipped; --force renders it again",
+                task.name
+            ));
+            continue;
+        }
+        let layout = Layout::new(job, task, job.spectral_scene(task).is_some());
+        let cp = checkpoint::checkpoint_path(&dir, shard);
+        let state = if options.resume && cp.exists() {
+            let f = StateFile::read(&cp)?;
+            let s = f.state;
+            if s.job_hash != job.hash || s.task != task.index || s.shard != shard || !layout.fits(&s) {
+                anyhow::bail!(atmosim::Error::data(
+                    cp.display().to_string(),
+                    format!(
+                        "this checkpoint is of job {} task {} shard {}, not of job {} task {} shard {shard}: \
+                         delete it, or run without --resume to start the unit afresh",
+                        s.job_hash, s.task, s.shard, job.hash, task.index
+                    )
+                ));
+            }
+            log(&format!(
+                "{} (shard {shard}): resuming from {} ({:.1} % done)",
+                task.name,
+                cp.display(),
+                100.0 * layout.done_paths(&s) as f64 / layout.paths(shard).max(1) as f64
+            ));
+            s
+        } else {
+            if cp.exists() {
+                log(&format!(
+                    "{}: starting afresh; the checkpoint {} will be replaced (--resume continues it)",
+                    task.name,
+                    cp.display()
+                ));
+            }
+            layout.empty_state(job, task, shard)
+        };
+        units.push(Unit {
+            task,
+            dir,
+            layout,
+            state,
+        });
     }
-    if let Some(b) = bar {
-        b.finish_and_clear();
+    let total: u64 = units.iter().map(|u| u.layout.paths(shard)).sum();
+    let done: u64 = units.iter().map(|u| u.layout.done_paths(&u.state)).sum();
+    let progress = Progress::new(total, done, options.quiet);
+    let count = units.len();
+    for (k, unit) in units.iter_mut().enumerate() {
+        let Unit {
+            task,
+            dir,
+            layout,
+            state,
+        } = unit;
+        let start = std::time::Instant::now();
+        let before = layout.done_paths(state);
+        let cp = checkpoint::checkpoint_path(dir, shard);
+        let checkpoint = |s: &UnitState| -> atmosim::Result<()> {
+            let t = std::time::Instant::now();
+            let bytes = checkpoint::write_state(job, s, &cp)?;
+            progress.println(&format!(
+                "{}: checkpoint {} ({:.1} MB in {:.2} s)",
+                task.name,
+                cp.display(),
+                bytes as f64 / 1e6,
+                t.elapsed().as_secs_f64()
+            ));
+            Ok(())
+        };
+        let inc = |n: u64| progress.inc(n);
+        let control = Control {
+            stop: &STOP,
+            checkpoint_every: options.checkpoint_every,
+            checkpoint: &checkpoint,
+            progress: &inc,
+        };
+        let shared = job.spectral_scene(task);
+        let outcome = pool.install(|| unit::run(job, task, layout, shared, state, &control))?;
+        if outcome == Outcome::Stopped {
+            let sig = SIGNAL.load(Ordering::SeqCst) as i32;
+            progress.finish();
+            eprintln!(
+                "{}: stopped by signal {sig}; checkpoint written to {}; rerun with --resume to continue",
+                task.name,
+                cp.display()
+            );
+            return Err(Interrupted(sig).into());
+        }
+        let secs = start.elapsed().as_secs_f64();
+        let paths = layout.paths(shard) - before;
+        let rate = format!(
+            "{paths} paths in {secs:.1} s ({:.0} paths/s on {} threads)",
+            paths as f64 / secs.max(1e-9),
+            pool.current_num_threads()
+        );
+        if shard.is_whole() {
+            let info = RunInfo {
+                shards: 1,
+                seconds: Some(secs),
+                threads: pool.current_num_threads(),
+            };
+            let note = task_output::write(dir, job, task, layout, state, info)?;
+            progress.println(&format!(
+                "[task {}/{}] {}: {rate}; wrote {}{note}",
+                k + 1,
+                count,
+                task.name,
+                dir.display()
+            ));
+        } else {
+            let path = checkpoint::shard_path(dir, shard);
+            checkpoint::write_state(job, state, &path)?;
+            progress.println(&format!(
+                "[task {}/{}] {} shard {shard}: {rate}; wrote {}",
+                k + 1,
+                count,
+                task.name,
+                path.display()
+            ));
+        }
+        // The unit's files are in place: its checkpoint has served.
+        match std::fs::remove_file(&cp) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("removing {}", cp.display()));
+            }
+            _ => {
+                // Only when empty: other shards' checkpoints may be there.
+                if let Some(parent) = cp.parent() {
+                    let _ = std::fs::remove_dir(parent);
+                }
+            }
+        }
     }
+    progress.finish();
+    Ok(())
+}
+
+/// Progress of a render: a bar on a terminal, else a line a minute.
+struct Progress {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+    total: u64,
+    done: AtomicU64,
+    start: std::time::Instant,
+    last_line: std::sync::Mutex<std::time::Instant>,
+}
+
+impl Progress {
+    fn new(total: u64, done: u64, quiet: bool) -> Progress {
+        let bar = (std::io::stderr().is_terminal() && !quiet).then(|| {
+            let bar = ProgressBar::new(total);
+            bar.set_style(
+                ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {per_sec} ETA {eta}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar.set_message("paths");
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+            bar.set_position(done);
+            bar
+        });
+        Progress {
+            bar,
+            quiet,
+            total,
+            done: AtomicU64::new(done),
+            start: std::time::Instant::now(),
+            last_line: std::sync::Mutex::new(std::time::Instant::now()),
+        }
+    }
+
+    fn inc(&self, n: u64) {
+        let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
+        if let Some(b) = &self.bar {
+            b.inc(n);
+        } else if !self.quiet
+            && let Ok(mut last) = self.last_line.lock()
+            && last.elapsed().as_secs() >= 60
+        {
+            *last = std::time::Instant::now();
+            let secs = self.start.elapsed().as_secs_f64();
+            eprintln!(
+                "progress: {:.1} % of {} paths, {:.0} s elapsed",
+                100.0 * done as f64 / self.total.max(1) as f64,
+                self.total,
+                secs
+            );
+        }
+    }
+
+    fn println(&self, msg: &str) {
+        match &self.bar {
+            Some(b) => b.println(msg),
+            None if !self.quiet => eprintln!("{msg}"),
+            None => {}
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// `plan --slurm`: writes OUT/slurm/render.sbatch and the log directory.
+fn write_slurm(
+    job: &Job,
+    job_path: &Path,
+    out: Option<PathBuf>,
+    shards: u64,
+    time: Option<String>,
+    cpus: usize,
+    checkpoint_every: f64,
+) -> anyhow::Result<()> {
+    let invalid = |key: &str, value: String, valid: &str| atmosim::Error::InvalidValue {
+        file: "command line".into(),
+        key: key.into(),
+        value,
+        reason: "out of range".into(),
+        valid: valid.into(),
+    };
+    if shards == 0 {
+        anyhow::bail!(invalid("--shards", "0".into(), "1 or more"));
+    }
+    if cpus == 0 {
+        anyhow::bail!(invalid("--cpus", "0".into(), "1 or more"));
+    }
+    if !(checkpoint_every.is_finite() && checkpoint_every >= 0.0) {
+        anyhow::bail!(invalid(
+            "--checkpoint-every",
+            format!("{checkpoint_every}"),
+            "0 or more minutes"
+        ));
+    }
+    if let Some(t) = &time
+        && plan::time_seconds(t).is_none()
+    {
+        anyhow::bail!(invalid(
+            "--time",
+            t.clone(),
+            "a SLURM time limit such as 04:00:00 or 1-12:00:00"
+        ));
+    }
+    let absolute = |p: &Path| -> anyhow::Result<PathBuf> {
+        Ok(if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            std::env::current_dir()
+                .context("reading the current directory")?
+                .join(p)
+        })
+    };
+    let out_dir = absolute(&out.unwrap_or_else(|| job.render.output_directory.clone()))?;
+    let options = plan::SlurmOptions {
+        exe: std::env::current_exe().context("locating the atmosim binary")?,
+        job_file: std::fs::canonicalize(job_path).with_context(|| format!("resolving {}", job_path.display()))?,
+        out_dir: out_dir.clone(),
+        shards,
+        cpus,
+        time: time.clone(),
+        checkpoint_minutes: checkpoint_every,
+    };
+    let (time, estimate) = match time {
+        Some(t) => (t, None),
+        None => {
+            let rate = plan::calibrate(job);
+            let secs = plan::unit_seconds(job, shards, rate, cpus);
+            (plan::hms(secs), Some(rate))
+        }
+    };
+    let script = plan::slurm_script(job, &options, &time);
+    let logs = out_dir.join("slurm").join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let path = out_dir.join("slurm").join("render.sbatch");
+    output::write_atomic(&path, script.as_bytes())?;
+    let units = plan::units(job, shards);
+    if units > 1001 {
+        eprintln!(
+            "note: {units} units exceed SLURM's default MaxArraySize (1001); submit in slices with ATMOSIM_UNIT_OFFSET (see the script's header)"
+        );
+    }
+    if let Some(rate) = estimate {
+        eprintln!(
+            "time per unit {time}: twice the estimate at {rate:.0} paths/s per core on {cpus} cpus, plus 10 minutes"
+        );
+    }
+    println!("{}", path.display());
+    eprintln!(
+        "{units} units ({} tasks × {shards} shards); submit with: sbatch {}",
+        job.tasks.len(),
+        path.display()
+    );
     Ok(())
 }
 

@@ -115,3 +115,190 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
         "# (low suns and high observers have longer paths: treat the estimate as a guide)"
     )
 }
+
+/// What `plan --slurm` needs besides the job.
+#[derive(Debug, Clone)]
+pub struct SlurmOptions {
+    /// Absolute paths of the atmosim binary, the job file and the output directory.
+    pub exe: std::path::PathBuf,
+    pub job_file: std::path::PathBuf,
+    pub out_dir: std::path::PathBuf,
+    /// Shards per task.
+    pub shards: u64,
+    /// CPUs per unit.
+    pub cpus: usize,
+    /// Wall time per unit (`HH:MM:SS`); `None`: estimated.
+    pub time: Option<String>,
+    /// Minutes between checkpoints.
+    pub checkpoint_minutes: f64,
+}
+
+/// Units of a job: tasks × shards.
+pub fn units(job: &Job, shards: u64) -> u64 {
+    job.tasks.len() as u64 * shards
+}
+
+/// Memory a unit needs, in MiB: its sums twice (the live state and the
+/// encoded checkpoint) plus the binary, the atmosphere and the rest.
+pub fn unit_memory_mib(job: &Job) -> u64 {
+    let task = &job.tasks[0];
+    let layout = crate::unit::Layout::new(job, task, job.spectral_scene(task).is_some());
+    let tallies: u64 = (0..layout.estimates.len()).map(|e| layout.tallies(e) as u64).sum();
+    let bytes = tallies * std::mem::size_of::<crate::render::Tally>() as u64 * 2 + layout.weights.len() as u64 * 8;
+    256 + bytes.div_ceil(1 << 20) * 5 / 4
+}
+
+/// `HH:MM:SS` of a number of seconds (hours may exceed 24).
+pub fn hms(seconds: f64) -> String {
+    let s = seconds.max(0.0).ceil() as u64;
+    format!("{:02}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// Seconds of a SLURM time limit: `minutes`, `minutes:seconds`,
+/// `hours:minutes:seconds`, `days-hours`, `days-hours:minutes` or
+/// `days-hours:minutes:seconds`; `None` for anything else.
+pub fn time_seconds(t: &str) -> Option<u64> {
+    let num =
+        |p: &str| -> Option<u64> { (!p.is_empty() && p.bytes().all(|b| b.is_ascii_digit())).then(|| p.parse().ok())? };
+    let (days, rest) = match t.split_once('-') {
+        Some((d, r)) => (Some(num(d)?), r),
+        None => (None, t),
+    };
+    let parts: Vec<u64> = rest.split(':').map(num).collect::<Option<_>>()?;
+    let secs = match (days, parts.as_slice()) {
+        (None, [m]) => m * 60,
+        (None, [m, s]) => m * 60 + s,
+        (None, [h, m, s]) => h * 3600 + m * 60 + s,
+        (Some(d), [h]) => d * 86400 + h * 3600,
+        (Some(d), [h, m]) => d * 86400 + h * 3600 + m * 60,
+        (Some(d), [h, m, s]) => d * 86400 + h * 3600 + m * 60 + s,
+        _ => return None,
+    };
+    (secs > 0).then_some(secs)
+}
+
+/// Seconds before the time limit at which SLURM sends SIGTERM: a tenth
+/// of the limit, between 10 s and 3 minutes (time to finish a wave and
+/// write the checkpoint before SIGKILL).
+pub fn signal_lead(limit_seconds: u64) -> u64 {
+    (limit_seconds / 10).clamp(10, 180)
+}
+
+/// The wall time a unit needs at `rate` paths/s per core on `cpus` cores:
+/// twice the estimate plus 10 minutes (for startup, checkpoints and slow
+/// corners of the grid: low suns cost more than the calibration task).
+pub fn unit_seconds(job: &Job, shards: u64, rate: f64, cpus: usize) -> f64 {
+    let paths = task_paths(job) as f64 / shards as f64;
+    2.0 * paths / (rate * cpus as f64).max(1.0) + 600.0
+}
+
+/// A ready sbatch script for an array over every unit of the job (task ×
+/// shard). Array index i is unit i: task ⌊i / N⌋, shard (i mod N) + 1.
+/// Each unit runs `render --resume`, so a rerun (requeue, resubmission)
+/// skips finished units and continues interrupted ones from their last
+/// checkpoint; SIGTERM, which SLURM sends before the time limit
+/// (`--signal`) and on `scancel`, makes atmosim write a checkpoint and stop.
+pub fn slurm_script(job: &Job, o: &SlurmOptions, time: &str) -> String {
+    let units = units(job, o.shards);
+    let q = |p: &std::path::Path| shell_quote(&p.display().to_string());
+    let logs = o.out_dir.join("slurm").join("logs");
+    let merge = if o.shards > 1 {
+        format!(
+            "# When every unit has finished, combine the shards:\n#   {} merge {}\n\
+             # or let SLURM do it: sbatch --dependency=afterok:<array job id> --wrap '{} merge {}'\n",
+            q(&o.exe),
+            q(&o.out_dir),
+            q(&o.exe),
+            q(&o.out_dir)
+        )
+    } else {
+        "# One shard per task: every unit writes its task's final files; nothing to merge.\n".to_string()
+    };
+    let mut s = String::new();
+    s.push_str("#!/bin/bash\n");
+    s.push_str(&format!(
+        "# atmosim render array for {} (job hash {}): {} tasks x {} shards = {units} units.\n",
+        job.file,
+        job.hash,
+        job.tasks.len(),
+        o.shards
+    ));
+    s.push_str("# Written by `atmosim plan --slurm`. Submit with: sbatch <this file>\n");
+    s.push_str(&merge);
+    s.push_str(
+        "# Rerunning is safe: a finished unit is skipped, an interrupted one resumes from its\n\
+         # checkpoint (written every few minutes and on SIGTERM), so `scontrol requeue`, a\n\
+         # pre-emption or resubmitting this script (all of it or `--array=<i>`) loses no samples.\n\
+         # More than MaxArraySize units: submit in slices with an offset, e.g.\n\
+         #   sbatch --array=0-999 --export=ALL,ATMOSIM_UNIT_OFFSET=1000 <this file>\n",
+    );
+    s.push_str(&format!(
+        "#SBATCH --job-name=atmosim-{}\n",
+        &job.hash[..8.min(job.hash.len())]
+    ));
+    s.push_str(&format!("#SBATCH --array=0-{}\n", units.saturating_sub(1)));
+    s.push_str("#SBATCH --ntasks=1\n");
+    s.push_str(&format!("#SBATCH --cpus-per-task={}\n", o.cpus));
+    s.push_str(&format!("#SBATCH --mem={}M\n", unit_memory_mib(job)));
+    s.push_str(&format!("#SBATCH --time={time}\n"));
+    s.push_str(&format!("#SBATCH --output={}\n", q(&logs.join("%A_%a.out"))));
+    s.push_str("#SBATCH --open-mode=append\n");
+    s.push_str("#SBATCH --requeue\n");
+    // SIGTERM to the batch shell (which `exec`s atmosim) before the limit.
+    let lead = signal_lead(time_seconds(time).unwrap_or(3600));
+    s.push_str(&format!("#SBATCH --signal=B:TERM@{lead}\n"));
+    s.push_str("set -euo pipefail\n");
+    s.push_str(&format!("SHARDS={}\n", o.shards));
+    s.push_str("UNIT=$(( SLURM_ARRAY_TASK_ID + ${ATMOSIM_UNIT_OFFSET:-0} ))\n");
+    s.push_str("TASK=$(( UNIT / SHARDS ))\n");
+    s.push_str("SHARD=$(( UNIT % SHARDS + 1 ))\n");
+    s.push_str(
+        "echo \"$(date -Is) unit $UNIT: task $TASK, shard $SHARD/$SHARDS on $(hostname), ${SLURM_CPUS_PER_TASK:-1} cpus (restart ${SLURM_RESTART_COUNT:-0})\"\n",
+    );
+    s.push_str(&format!(
+        "exec {} render {} --out {} --task \"$TASK\" --shard \"$SHARD/$SHARDS\" --resume \\\n    --threads \"${{SLURM_CPUS_PER_TASK:-1}}\" --checkpoint-every {}\n",
+        q(&o.exe),
+        q(&o.job_file),
+        q(&o.out_dir),
+        o.checkpoint_minutes
+    ));
+    s
+}
+
+/// Single-quotes a word for the shell when it needs it.
+fn shell_quote(s: &str) -> String {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "/._-+:,=%@".contains(c)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+#[cfg(test)]
+mod slurm_tests {
+    use super::*;
+
+    #[test]
+    fn times_and_quotes() {
+        assert_eq!(hms(3661.2), "01:01:02");
+        assert_eq!(hms(100.0 * 3600.0), "100:00:00");
+        for (good, secs) in [
+            ("01:00:00", 3600),
+            ("2-00:00:00", 172800),
+            ("30", 1800),
+            ("10:05", 605),
+            ("1-2", 93600),
+            ("1-2:03", 93780),
+        ] {
+            assert_eq!(time_seconds(good), Some(secs), "{good}");
+        }
+        for bad in ["", "1h", "01:00:00:00", "a-01:00:00", "01::00", "00:00:00", "-5", "1-"] {
+            assert_eq!(time_seconds(bad), None, "{bad}");
+        }
+        assert_eq!(signal_lead(600), 60);
+        assert_eq!(signal_lead(36000), 180);
+        assert_eq!(signal_lead(60), 10);
+        assert_eq!(shell_quote("/a/b.toml"), "/a/b.toml");
+        assert_eq!(shell_quote("/a b/it's"), "'/a b/it'\\''s'");
+    }
+}

@@ -58,7 +58,8 @@ impl Tally {
         self.samples += 1;
     }
 
-    fn merge(&mut self, o: &Tally) {
+    /// Adds another tally's sums and counts.
+    pub fn merge(&mut self, o: &Tally) {
         for k in 0..4 {
             self.sum[k] += o.sum[k];
             self.sum_sq[k] += o.sum_sq[k];
@@ -120,8 +121,25 @@ pub fn tally<R: SampleValues>(
     count: usize,
     f: impl Fn(&mut Sampler) -> R + Sync,
 ) -> Vec<Tally> {
-    let blocks = samples.div_ceil(BLOCK);
-    let partial: Vec<Vec<Tally>> = (0..blocks)
+    let mut total = vec![Tally::default(); count];
+    tally_blocks(0..samples.div_ceil(BLOCK), samples, keys, &mut total, f);
+    total
+}
+
+/// Adds the samples of `blocks` (block indices of an estimate of `samples`
+/// samples) to `total`, one tally per value: blocks in parallel, their sums
+/// added to `total` in block order. Adding blocks 0..a and then a..b gives
+/// bit for bit what adding 0..b at once gives, which is what makes shards
+/// and checkpoints exact.
+pub fn tally_blocks<R: SampleValues>(
+    blocks: std::ops::Range<u64>,
+    samples: u64,
+    keys: [u64; 3],
+    total: &mut [Tally],
+    f: impl Fn(&mut Sampler) -> R + Sync,
+) {
+    let count = total.len();
+    let partial: Vec<Vec<Tally>> = blocks
         .into_par_iter()
         .map(|b| {
             let mut t = vec![Tally::default(); count];
@@ -135,13 +153,16 @@ pub fn tally<R: SampleValues>(
             t
         })
         .collect();
-    let mut total = vec![Tally::default(); count];
     for p in &partial {
         for (t, q) in total.iter_mut().zip(p) {
             t.merge(q);
         }
     }
-    total
+}
+
+/// The samples of `blocks`.
+pub fn block_samples(blocks: &std::ops::Range<u64>, samples: u64) -> u64 {
+    (blocks.end * BLOCK).min(samples) - (blocks.start * BLOCK).min(samples)
 }
 
 /// Renders each direction with `samples` paths for every albedo of the
@@ -232,43 +253,67 @@ pub struct Fluxes {
 /// over cosine-distributed viewing directions in each hemisphere; the
 /// direct beam from the exact transmittance along the sun's direction.
 pub fn render_fluxes_all(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, key: u64) -> Vec<Fluxes> {
-    let hemisphere = |stream: u64, sign: f64| {
+    let hemisphere = |stream: u64, up: bool| {
         tally(samples, [seed, key, stream], scene.albedos.len(), |s| {
-            let u = s.next2();
-            let r = u[0].sqrt();
-            let phi = 2.0 * PI * u[1];
-            let z = sign * (1.0 - u[0]).max(0.0).sqrt();
-            let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
-            let mut l = scene.radiance_sample(altitude_km, v, phi, s);
-            for x in l.values.iter_mut() {
-                *x = Stokes::new(PI * x.0[0], 0.0, 0.0, 0.0);
-            }
-            l
+            flux_sample(scene, altitude_km, up, s)
         })
     };
-    let down = hemisphere(FLUX_DOWN_KEY, 1.0);
-    let up = hemisphere(FLUX_UP_KEY, -1.0);
+    let down = hemisphere(FLUX_DOWN_KEY, false);
+    let up = hemisphere(FLUX_UP_KEY, true);
+    let e_dir = direct_horizontal(scene, altitude_km);
+    down.iter().zip(&up).map(|(d, u)| Fluxes::new(e_dir, d, u)).collect()
+}
+
+/// The stream (third key) of the downward (`up` false) or upward flux.
+pub fn flux_stream(up: bool) -> u64 {
+    if up { FLUX_UP_KEY } else { FLUX_DOWN_KEY }
+}
+
+/// One sample of an irradiance estimate: π·I for a cosine-distributed
+/// viewing direction in the upper (`up` false: light coming down) or lower
+/// hemisphere, for every albedo of the scene.
+pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler) -> Radiances {
+    let sign = if up { -1.0 } else { 1.0 };
+    let u = s.next2();
+    let r = u[0].sqrt();
+    let phi = 2.0 * PI * u[1];
+    let z = sign * (1.0 - u[0]).max(0.0).sqrt();
+    let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+    for x in l.values.iter_mut() {
+        *x = Stokes::new(PI * x.0[0], 0.0, 0.0, 0.0);
+    }
+    l
+}
+
+/// The direct solar irradiance on a horizontal plane at the observer,
+/// μ0·T_sun, from the exact transmittance along the sun's direction.
+pub fn direct_horizontal(scene: &Scene, altitude_km: f64) -> f64 {
     let origin = scene.observer_position(altitude_km);
     let s = scene.sun.direction;
     let mu0 = s.dot(scene.geometry.up(origin));
-    let e_dir = match tracking::layer_at(scene.medium.levels_km(), altitude_km, mu0) {
+    match tracking::layer_at(scene.medium.levels_km(), altitude_km, mu0) {
         Some(layer) if mu0 > 0.0 => {
             mu0 * tracking::analytic_transmittance(&scene.medium, &scene.geometry, &Ray { origin, dir: s, layer })
         }
         None if mu0 > 0.0 => mu0,
         _ => 0.0,
-    };
-    down.iter()
-        .zip(&up)
-        .map(|(d, u)| Fluxes {
+    }
+}
+
+impl Fluxes {
+    /// The fluxes from the direct irradiance and the tallies of the
+    /// downward and upward estimates.
+    pub fn new(e_dir: f64, down: &Tally, up: &Tally) -> Fluxes {
+        Fluxes {
             e_dir,
-            e_down: d.mean()[0],
-            e_down_se: d.standard_error()[0],
-            e_up: u.mean()[0],
-            e_up_se: u.standard_error()[0],
-            samples,
-        })
-        .collect()
+            e_down: down.mean()[0],
+            e_down_se: down.standard_error()[0],
+            e_up: up.mean()[0],
+            e_up_se: up.standard_error()[0],
+            samples: down.samples,
+        }
+    }
 }
 
 /// [`render_fluxes_all`] for the scene's first albedo.
@@ -290,75 +335,28 @@ pub fn stream_key(task: usize, wavelength: usize) -> u64 {
 }
 
 /// Renders a `directions` sensor for every albedo and wavelength of one
-/// task (in the current rayon pool), calling `log` with a line per render.
+/// task in one go (in the current rayon pool; see [`crate::unit`] for runs
+/// that checkpoint), calling `log` with a line at the end.
 pub fn render_task(job: &crate::job::Job, task: &crate::job::Task, log: &dyn Fn(&str)) -> RenderResult {
-    let spec = &job.render;
-    let directions = spec.directions();
-    let altitude_km = task.observer_altitude_km;
-    let mut result = RenderResult::default();
-    // Radiances: along shared spectral paths where possible.
-    let shared = job.spectral_scene(task).map(|scene| {
-        let start = std::time::Instant::now();
-        let t = render_directions_spectral(
-            &scene,
-            altitude_km,
-            directions,
-            spec.samples,
-            spec.seed,
-            stream_key(task.index, 0xFFFF),
-        );
-        let paths = spec.samples * directions.len() as u64;
-        let secs = start.elapsed().as_secs_f64();
-        log(&format!(
-            "{}: {} wavelengths along shared paths: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
-            task.name,
-            job.wavelengths_nm.len(),
-            paths as f64 / secs,
-            rayon::current_num_threads()
-        ));
-        t
-    });
-    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-        let start = std::time::Instant::now();
-        let scene = job.scene_for(task, w);
-        let key = stream_key(task.index, w);
-        let tallies = match &shared {
-            Some(t) => t[w].clone(),
-            None => render_directions_all(&scene, altitude_km, directions, spec.samples, spec.seed, key),
-        };
-        let fluxes = spec
-            .fluxes
-            .then(|| render_fluxes_all(&scene, altitude_km, spec.samples, spec.seed, key));
-        for (a, &albedo) in spec.albedos.iter().enumerate() {
-            for (direction, tally) in directions.iter().zip(&tallies[a]) {
-                result.radiance.push(crate::output::RadianceRow {
-                    wavelength_nm,
-                    albedo,
-                    direction: *direction,
-                    tally: *tally,
-                });
-            }
-            if let Some(f) = &fluxes {
-                result.fluxes.push(crate::output::FluxRow {
-                    wavelength_nm,
-                    albedo,
-                    altitude_km,
-                    fluxes: f[a],
-                });
-            }
-        }
-        let paths = spec.samples
-            * (if shared.is_some() { 0 } else { directions.len() as u64 } + if spec.fluxes { 2 } else { 0 });
-        let secs = start.elapsed().as_secs_f64();
-        if paths > 0 {
-            log(&format!(
-                "{}: {wavelength_nm} nm, {} albedos: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
-                task.name,
-                spec.albedos.len(),
-                paths as f64 / secs,
-                rayon::current_num_threads()
-            ));
-        }
-    }
-    result
+    use crate::shard::Shard;
+    use crate::unit::{self, Control, Layout};
+    let start = std::time::Instant::now();
+    let shared = job.spectral_scene(task);
+    let layout = Layout::new(job, task, shared.is_some());
+    let mut state = layout.empty_state(job, task, Shard::WHOLE);
+    let quiet = |_| {};
+    // Without a stop flag or checkpoints a run always completes.
+    let _ = unit::run(job, task, &layout, shared, &mut state, &Control::none(&quiet));
+    let paths = layout.paths(Shard::WHOLE);
+    let secs = start.elapsed().as_secs_f64();
+    log(&format!(
+        "{}: {} wavelengths × {} albedos{}: {paths} paths in {secs:.2} s ({:.0} paths/s on {} threads)",
+        task.name,
+        job.wavelengths_nm.len(),
+        job.render.albedos.len(),
+        if layout.shared { " along shared paths" } else { "" },
+        paths as f64 / secs,
+        rayon::current_num_threads()
+    ));
+    unit::directions_result(job, task, &layout, &state)
 }

@@ -8,14 +8,14 @@ use std::path::Path;
 use crate::camera::{Camera, PixelFilter};
 use crate::color::{srgb_preview, write_png};
 use crate::error::Result;
-use crate::film::{ImageLayer, PixelSampling, pixel_weights, render_layers, render_layers_spectral};
+use crate::film::ImageLayer;
 use crate::job::{AtmosphereSource, Job, Task, Units};
 use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
-use crate::render::Tally;
-use crate::render::stream_key;
+use crate::shard::Shard;
 use crate::solar::SolarSpectrum;
 use crate::tracking::{self, Ray};
+use crate::unit::{self, Control, Layout};
 
 /// The file an image task writes its Stokes images to.
 pub const IMAGE_FILE: &str = "image.exr";
@@ -28,8 +28,9 @@ pub struct SkyImage {
     pub layers: Vec<ImageLayer>,
 }
 
-/// Renders every layer of `task` with `camera`; `progress(n)` is called as
-/// pixels finish, `log` once per layer.
+/// Renders every layer of `task` with `camera` in one go (see
+/// [`crate::unit`] for runs that checkpoint); `progress(n)` is called with
+/// the paths traced, `log` once at the end.
 pub fn render(
     job: &Job,
     task: &Task,
@@ -37,100 +38,24 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
     log: &dyn Fn(&str),
 ) -> SkyImage {
-    let spec = &job.render;
-    let weights = pixel_weights(camera);
-    let (width, height) = camera.size();
-    let na = spec.albedos.len();
-    let mut layers = Vec::new();
-    let sampling = |key| PixelSampling {
-        camera,
-        weights: &weights,
-        filter: spec.pixel_filter,
-        samples: spec.samples,
-        seed: spec.seed,
-        key,
-    };
     let start = std::time::Instant::now();
-    if let Some(scene) = job.spectral_scene(task) {
-        // All wavelengths along shared paths.
-        let (tallies, non_finite) = render_layers_spectral(
-            &scene,
-            &sampling(stream_key(task.index, SHARED)),
-            task.observer_altitude_km,
-            progress,
-        );
-        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-            push_layers(
-                &mut layers,
-                wavelength_nm,
-                &spec.albedos,
-                &tallies[w * na..(w + 1) * na],
-                if w == 0 { non_finite } else { 0 },
-            );
-        }
-        let paths: u64 = tallies[0].iter().map(|t| t.samples).sum();
-        let secs = start.elapsed().as_secs_f64();
-        log(&format!(
-            "{}: {} wavelengths × {na} albedos along shared paths: {paths} paths in {secs:.1} s ({:.0} paths/s)",
-            task.name,
-            job.wavelengths_nm.len(),
-            paths as f64 / secs
-        ));
-    } else {
-        for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
-            let start = std::time::Instant::now();
-            let scene = job.scene_for(task, w);
-            let (tallies, non_finite) = render_layers(
-                &scene,
-                &sampling(stream_key(task.index, w)),
-                task.observer_altitude_km,
-                progress,
-            );
-            push_layers(&mut layers, wavelength_nm, &spec.albedos, &tallies, non_finite);
-            let paths: u64 = tallies[0].iter().map(|t| t.samples).sum();
-            let secs = start.elapsed().as_secs_f64();
-            log(&format!(
-                "{}: {wavelength_nm} nm, {na} albedos: {paths} paths in {secs:.1} s ({:.0} paths/s)",
-                task.name,
-                paths as f64 / secs
-            ));
-        }
-    }
-    SkyImage { width, height, layers }
-}
-
-/// The stream key's wavelength slot for shared spectral paths.
-const SHARED: usize = 0xFFFF;
-
-/// One image layer per albedo of one wavelength from its tallies
-/// `[albedo][pixel]`; the non-finite count goes to the first (the albedos
-/// share their paths).
-fn push_layers(
-    layers: &mut Vec<ImageLayer>,
-    wavelength_nm: f64,
-    albedos: &[f64],
-    tallies: &[Vec<Tally>],
-    non_finite: u64,
-) {
-    for (a, (&albedo, pixels)) in albedos.iter().zip(tallies).enumerate() {
-        let mut mean: [Vec<f64>; 4] = Default::default();
-        let mut se: [Vec<f64>; 4] = Default::default();
-        for t in pixels {
-            let (m, e) = (t.mean(), t.standard_error());
-            for k in 0..4 {
-                mean[k].push(m[k]);
-                se[k].push(e[k]);
-            }
-        }
-        let non_finite = if a == 0 { non_finite } else { 0 };
-        layers.push(ImageLayer {
-            wavelength_nm,
-            albedo,
-            mean,
-            se,
-            non_finite,
-        });
-    }
+    let shared = job.spectral_scene(task);
+    let layout = Layout::new(job, task, shared.is_some());
+    let mut state = layout.empty_state(job, task, Shard::WHOLE);
+    let control = Control::none(progress);
+    // Without a stop flag or checkpoints a run always completes.
+    let _ = unit::run(job, task, &layout, shared, &mut state, &control);
+    let paths = layout.paths(Shard::WHOLE);
+    let secs = start.elapsed().as_secs_f64();
+    log(&format!(
+        "{}: {} wavelengths × {} albedos{}: {paths} paths in {secs:.1} s ({:.0} paths/s)",
+        task.name,
+        job.wavelengths_nm.len(),
+        job.render.albedos.len(),
+        if layout.shared { " along shared paths" } else { "" },
+        paths as f64 / secs
+    ));
+    unit::image_result(job, camera, &layout, &state)
 }
 
 /// The EXR layer name of a wavelength and albedo: `540nm_a030`.

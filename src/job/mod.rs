@@ -83,6 +83,10 @@ pub struct Job {
     pub transmittance: TransmittanceSpec,
     /// FNV-1a hash of the job text (hex), identifying the job in outputs.
     pub hash: String,
+    /// The job text and the directory its relative paths resolve from:
+    /// shard and checkpoint files carry them, so `merge` can rebuild the job.
+    pub text: String,
+    pub dir: std::path::PathBuf,
 }
 
 /// One point of the job's grid.
@@ -416,12 +420,14 @@ impl Job {
             render,
             transmittance,
             hash: format!("{:016x}", fnv1a(text.as_bytes())),
+            text: text.to_string(),
+            dir: dir.to_path_buf(),
         })
     }
 }
 
 /// FNV-1a, 64 bit (Fowler, Noll & Vo): a stable hash of the job text.
-fn fnv1a(bytes: &[u8]) -> u64 {
+pub fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })

@@ -1,0 +1,83 @@
+//! A finished task's files, from its sums: `radiance.csv` and `fluxes.csv`
+//! for a `directions` sensor, `image.exr` and the previews for an image,
+//! then `task.toml` (the task's metadata: job hash, samples, non-finite
+//! samples, shards), written last. Every file is written atomically, and a
+//! task counts as complete only when its `task.toml` names the same job
+//! hash, so a crash at any point never leaves a task that looks complete.
+
+use std::path::Path;
+
+use crate::error::Result;
+use crate::job::{Job, Sensor, Task};
+use crate::output::{self, write_atomic};
+use crate::sky_image;
+use crate::unit::{self, Layout, UnitState};
+
+/// The metadata file of a task.
+pub const TASK_FILE: &str = "task.toml";
+
+/// How the sums were made, for the metadata.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunInfo {
+    /// Shards merged (1: rendered in one unit).
+    pub shards: u64,
+    /// Wall time of the render (of the last unit when resumed; `None` for a merge).
+    pub seconds: Option<f64>,
+    pub threads: usize,
+}
+
+/// Writes the task's files into `dir`; returns a note for the log (the
+/// preview exposure of an image).
+pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitState, info: RunInfo) -> Result<String> {
+    let non_finite = state.non_finite(layout);
+    let note = match &job.render.sensor {
+        Sensor::Directions(_) => {
+            let result = unit::directions_result(job, task, layout, state);
+            write_atomic(
+                &dir.join("radiance.csv"),
+                output::radiance_csv(&result.radiance).as_bytes(),
+            )?;
+            if !result.fluxes.is_empty() {
+                write_atomic(&dir.join("fluxes.csv"), output::flux_csv(&result.fluxes).as_bytes())?;
+            }
+            String::new()
+        }
+        Sensor::Image(camera) => {
+            let image = unit::image_result(job, camera, layout, state);
+            sky_image::write(dir, job, task, camera, &image)?
+                .map_or(String::new(), |e| format!(" (preview exposure {e:.4e})"))
+        }
+    };
+    write_atomic(
+        &dir.join(TASK_FILE),
+        metadata(job, task, layout, non_finite, info).as_bytes(),
+    )?;
+    Ok(note)
+}
+
+/// True when `dir` holds this task of the same job, complete.
+pub fn is_complete(dir: &Path, job: &Job) -> bool {
+    std::fs::read_to_string(dir.join(TASK_FILE))
+        .is_ok_and(|text| text.lines().any(|l| l.trim() == format!("job_hash = \"{}\"", job.hash)))
+}
+
+fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunInfo) -> String {
+    let quote = |s: &str| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""));
+    let mut s = String::from("# atmosim task metadata, written after every other file of the task\n");
+    let mut put = |k: &str, v: String| s.push_str(&format!("{k} = {v}\n"));
+    put("atmosim_version", quote(env!("CARGO_PKG_VERSION")));
+    put("job_hash", quote(&job.hash));
+    put("job_file", quote(&job.file));
+    put("task", quote(&task.name));
+    put("task_index", task.index.to_string());
+    put("samples", job.render.samples.to_string());
+    put("paths", layout.paths(crate::shard::Shard::WHOLE).to_string());
+    put("non_finite_samples", non_finite.to_string());
+    put("shards", info.shards.to_string());
+    put("shared_wavelengths", layout.shared.to_string());
+    put("threads", info.threads.to_string());
+    if let Some(secs) = info.seconds {
+        put("wall_seconds", format!("{secs:.3}"));
+    }
+    s
+}
