@@ -659,6 +659,25 @@ mod tests {
     }
 
     #[test]
+    fn non_finite_samples_are_counted_once_per_path_and_never_summed() {
+        let j = job("[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0]\nazimuth_deg = [0.0]\n");
+        let task = &j.tasks[0];
+        let layout = Layout::new(&j, task, true);
+        let mut state = layout.empty_state(&j, task, Shard::WHOLE);
+        let nan = crate::stokes::Stokes::new(f64::NAN, 0.0, 0.0, 0.0);
+        let one = crate::stokes::Stokes::new(1.0, 0.5, 0.0, 0.0);
+        // One path: every value of the first estimate non-finite.
+        for t in state.tallies[0].iter_mut() {
+            t.add(&nan);
+            t.add(&one);
+        }
+        assert_eq!(state.non_finite(&layout), 1);
+        let t = state.tallies[0][0];
+        assert_eq!((t.sum[0], t.sum[1], t.samples, t.non_finite), (1.0, 0.5, 2, 1));
+        assert!(t.mean().iter().chain(&t.standard_error()).all(|x| x.is_finite()));
+    }
+
+    #[test]
     fn checkpoints_follow_the_interval() {
         let j = job("[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0]\nazimuth_deg = [0.0]\n");
         let count = std::sync::atomic::AtomicU64::new(0);

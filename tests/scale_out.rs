@@ -539,3 +539,56 @@ fn the_slurm_script_runs_every_unit_and_reruns_safely() {
         assert!(err.contains(expect), "{err}");
     }
 }
+
+#[test]
+fn a_kill_during_a_write_leaves_no_file_that_looks_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A cheap render with a large EXR (≈ 23 MB): its write and fsync take
+    // long enough to be caught while the temporary file exists.
+    job(
+        d,
+        "big.toml",
+        "[spectrum]\nwavelengths_nm = [450.0, 550.0, 650.0]\n[atmosphere]\naerosol = \"none\"\n\
+         [sun]\nelevation_deg = 30.0\n[sensor]\ntype = \"sphere\"\nresolution = [1600, 800]\n\
+         [render]\nsamples = 1\nmax_scattering_order = 1\n[output]\npreview = false\n",
+    );
+    let mut caught = 0;
+    for attempt in 0..5 {
+        let out = d.join(format!("o{attempt}"));
+        let mut child = spawn(d, &["render", "big.toml", "--out", &format!("o{attempt}"), "-q"]);
+        // Poll for the temporary file of image.exr, then kill -9 at once.
+        let start = Instant::now();
+        let mut seen = false;
+        while child.try_wait().unwrap().is_none() && start.elapsed() < Duration::from_secs(60) {
+            let tmp = std::fs::read_dir(&out).ok().is_some_and(|entries| {
+                entries
+                    .filter_map(|e| e.ok())
+                    .any(|e| e.file_name().to_string_lossy().starts_with(".image.exr.tmp"))
+            });
+            if tmp {
+                child.kill().unwrap();
+                seen = true;
+                break;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        child.wait().unwrap();
+        if !seen {
+            continue;
+        }
+        caught += 1;
+        // Killed mid-write: no image.exr (the rename never happened) and no
+        // task.toml; the temporary file is not an output.
+        assert!(!out.join("image.exr").exists(), "a partial image.exr is in place");
+        assert!(!out.join("task.toml").exists());
+        // A rerun completes the task.
+        run_ok(d, &["render", "big.toml", "--out", &format!("o{attempt}"), "-q"]);
+        read_exr(&out.join("image.exr")).unwrap();
+        assert!(out.join("task.toml").exists());
+        if caught == 2 {
+            break;
+        }
+    }
+    assert!(caught >= 1, "never caught a write in progress in 5 attempts");
+}
