@@ -7,12 +7,13 @@
 //! Format (little-endian), version 1:
 //! ```text
 //! "ATMOSIM-STATE-1\n"                       16 bytes
-//! job hash, job file, job directory, job text: each u64 length + UTF-8
+//! job hash, job file, job directory, job text: each u64 length + UTF-8,
+//!                                           zero-padded to whole 8-byte words
 //! task, shard index, shard count            3 × u64
 //! estimates                                 u64
 //!   per estimate: done u64, tallies u64,
 //!   per tally: sum[4], sum_sq[4] f64; samples, non_finite u64
-//! checksum                                  u64 (FNV-1a over 8-byte words of all the above)
+//! checksum                                  u64 (FNV-1a over the 8-byte words of all the above)
 //! ```
 //! The sums are stored bit for bit, so a resumed run continues exactly.
 
@@ -20,7 +21,9 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::job::Job;
-use crate::output::write_atomic;
+use std::io::Write;
+
+use crate::output::write_atomic_with;
 use crate::render::Tally;
 use crate::shard::Shard;
 use crate::unit::UnitState;
@@ -56,7 +59,13 @@ impl StateFile {
 
     /// The file's bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        encode(&self.job_file, &self.job_dir, &self.job_text, &self.state)
+        let mut e = Encoder {
+            w: Vec::new(),
+            hash: FNV_OFFSET,
+            bytes: 0,
+        };
+        encode(&mut e, &self.job_file, &self.job_dir, &self.job_text, &self.state).expect("writing to memory");
+        e.w
     }
 
     /// Parses a file's bytes; `name` is for messages.
@@ -126,13 +135,6 @@ impl StateFile {
         })
     }
 
-    /// Writes the file atomically; returns its size in bytes.
-    pub fn write(&self, path: &Path) -> Result<u64> {
-        let bytes = self.to_bytes();
-        write_atomic(path, &bytes)?;
-        Ok(bytes.len() as u64)
-    }
-
     /// Reads a state file.
     pub fn read(path: &Path) -> Result<StateFile> {
         let bytes = std::fs::read(path).map_err(|source| Error::Io {
@@ -143,42 +145,87 @@ impl StateFile {
     }
 }
 
-/// Writes the state of a unit of `job` atomically (without copying it);
-/// returns the file's size in bytes.
+/// Writes the state of a unit of `job` atomically, streaming it (no copy
+/// of the sums in memory); returns the file's size in bytes.
 pub fn write_state(job: &Job, state: &UnitState, path: &Path) -> Result<u64> {
-    let bytes = encode(&job.file, &job.dir, &job.text, state);
-    write_atomic(path, &bytes)?;
-    Ok(bytes.len() as u64)
+    let mut size = 0;
+    write_atomic_with(path, |w| {
+        let mut e = Encoder {
+            w: std::io::BufWriter::with_capacity(1 << 20, w),
+            hash: FNV_OFFSET,
+            bytes: 0,
+        };
+        encode(&mut e, &job.file, &job.dir, &job.text, state)?;
+        size = e.bytes;
+        e.w.flush()
+    })?;
+    Ok(size)
 }
 
-fn encode(job_file: &str, job_dir: &Path, job_text: &str, s: &UnitState) -> Vec<u8> {
-    let tallies: usize = s.tallies.iter().map(Vec::len).sum();
-    let mut out = Vec::with_capacity(256 + job_text.len() + tallies * 80 + s.done.len() * 16);
-    out.extend_from_slice(MAGIC);
+/// Encodes a state: every field a whole number of 8-byte words, each word
+/// fed to the checksum, which comes last.
+fn encode<W: Write>(
+    e: &mut Encoder<W>,
+    job_file: &str,
+    job_dir: &Path,
+    job_text: &str,
+    s: &UnitState,
+) -> std::io::Result<()> {
+    e.bytes(MAGIC)?;
     for text in [s.job_hash.as_str(), job_file, &job_dir.to_string_lossy(), job_text] {
-        put_str(&mut out, text);
+        e.string(text)?;
     }
     for v in [s.task as u64, s.shard.index, s.shard.count, s.done.len() as u64] {
-        put_u64(&mut out, v);
+        e.word(v)?;
     }
     for (done, list) in s.done.iter().zip(&s.tallies) {
-        put_u64(&mut out, *done);
-        put_u64(&mut out, list.len() as u64);
+        e.word(*done)?;
+        e.word(list.len() as u64)?;
         for t in list {
             for x in t.sum.iter().chain(&t.sum_sq) {
-                out.extend_from_slice(&x.to_bits().to_le_bytes());
+                e.word(x.to_bits())?;
             }
-            put_u64(&mut out, t.samples);
-            put_u64(&mut out, t.non_finite);
+            e.word(t.samples)?;
+            e.word(t.non_finite)?;
         }
     }
-    // Pad to whole words so the checksum covers every byte.
-    while out.len() % 8 != 0 {
-        out.push(0);
+    let sum = e.hash;
+    e.w.write_all(&sum.to_le_bytes())?;
+    e.bytes += 8;
+    Ok(())
+}
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
+
+/// Writes little-endian words and hashes them (FNV-1a over words).
+struct Encoder<W: Write> {
+    w: W,
+    hash: u64,
+    bytes: u64,
+}
+
+impl<W: Write> Encoder<W> {
+    fn word(&mut self, v: u64) -> std::io::Result<()> {
+        self.hash = (self.hash ^ v).wrapping_mul(FNV_PRIME);
+        self.bytes += 8;
+        self.w.write_all(&v.to_le_bytes())
     }
-    let sum = checksum(&out);
-    put_u64(&mut out, sum);
-    out
+
+    /// Bytes, zero-padded to whole words.
+    fn bytes(&mut self, b: &[u8]) -> std::io::Result<()> {
+        for chunk in b.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..chunk.len()].copy_from_slice(chunk);
+            self.word(u64::from_le_bytes(w))?;
+        }
+        Ok(())
+    }
+
+    fn string(&mut self, s: &str) -> std::io::Result<()> {
+        self.word(s.len() as u64)?;
+        self.bytes(s.as_bytes())
+    }
 }
 
 /// The checkpoint of `shard` in a task's directory.
@@ -196,19 +243,10 @@ pub fn shard_path(task_dir: &Path, shard: Shard) -> PathBuf {
 /// The extension of finished shard files.
 pub const SHARD_EXTENSION: &str = "shard";
 
-fn put_u64(out: &mut Vec<u8>, v: u64) {
-    out.extend_from_slice(&v.to_le_bytes());
-}
-
-fn put_str(out: &mut Vec<u8>, s: &str) {
-    put_u64(out, s.len() as u64);
-    out.extend_from_slice(s.as_bytes());
-}
-
 /// FNV-1a over little-endian 8-byte words (`bytes.len()` a multiple of 8).
 fn checksum(bytes: &[u8]) -> u64 {
-    bytes.chunks_exact(8).fold(0xcbf2_9ce4_8422_2325, |h, w| {
-        (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes"))).wrapping_mul(0x0000_0100_0000_01b3)
+    bytes.chunks_exact(8).fold(FNV_OFFSET, |h, w| {
+        (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes"))).wrapping_mul(FNV_PRIME)
     })
 }
 
@@ -224,10 +262,11 @@ impl Reader<'_> {
         Some(u64::from_le_bytes(b.try_into().ok()?))
     }
 
+    /// A length-prefixed string, zero-padded to whole words.
     fn string(&mut self) -> Option<String> {
         let n = usize::try_from(self.u64()?).ok()?;
         let b = self.bytes.get(self.at..self.at.checked_add(n)?)?;
-        self.at += n;
+        self.at += n.div_ceil(8) * 8;
         String::from_utf8(b.to_vec()).ok()
     }
 }

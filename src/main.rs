@@ -470,7 +470,7 @@ fn render_units(
                 ));
             }
             log(&format!(
-                "{} (shard {shard}): resuming from {} ({:.1} % done)",
+                "{} (shard {shard}): resuming from {} ({:.2} % done)",
                 task.name,
                 cp.display(),
                 100.0 * layout.done_paths(&s) as f64 / layout.paths(shard).max(1) as f64

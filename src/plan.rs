@@ -138,8 +138,9 @@ pub fn units(job: &Job, shards: u64) -> u64 {
     job.tasks.len() as u64 * shards
 }
 
-/// Memory a unit needs, in MiB: its sums twice (the live state and the
-/// encoded checkpoint) plus the binary, the atmosphere and the rest.
+/// Memory a unit needs, in MiB: its sums twice (the live state and, on
+/// `--resume`, the checkpoint read back) plus the binary, the atmosphere
+/// and the rest.
 pub fn unit_memory_mib(job: &Job) -> u64 {
     let task = &job.tasks[0];
     let layout = crate::unit::Layout::new(job, task, job.spectral_scene(task).is_some());
