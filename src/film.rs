@@ -12,7 +12,6 @@ use crate::integrator::Scene;
 use crate::render::SampleValues;
 use crate::render::Tally;
 use crate::sampler::Sampler;
-use crate::spectral::SpectralScene;
 use crate::stokes::Stokes;
 
 /// One image layer: a wavelength and an albedo, mean and standard error of
@@ -136,20 +135,6 @@ pub fn render_layers(
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Vec<Tally>>, u64) {
     render_pixels(sampling, scene.albedos.len(), progress, |v, phi, s| {
-        scene.radiance_sample(altitude_km, v, phi, s)
-    })
-}
-
-/// Every wavelength and albedo of `scene` along shared spectral paths:
-/// tallies `[wavelength·albedos + albedo][pixel]`.
-pub fn render_layers_spectral(
-    scene: &SpectralScene,
-    sampling: &PixelSampling,
-    altitude_km: f64,
-    progress: &(dyn Fn(u64) + Sync),
-) -> (Vec<Vec<Tally>>, u64) {
-    let count = scene.media.len() * scene.albedos.len();
-    render_pixels(sampling, count, progress, |v, phi, s| {
         scene.radiance_sample(altitude_km, v, phi, s)
     })
 }
