@@ -44,6 +44,8 @@ pub mod sun;
 pub mod sun_depth;
 pub mod tracking;
 pub mod transmittance;
+pub mod uvspec;
+pub mod validate;
 pub mod visibility;
 
 pub use error::{Error, Result};
