@@ -172,7 +172,14 @@ fn resolve_aerosol_layers(ctx: &Ctx, raw: &[RawAerosolLayer]) -> Result<Vec<Aero
         .enumerate()
         .map(|(i, l)| {
             let key = |k: &str| format!("atmosphere.aerosol_layers[{i}].{k}");
-            let bottom_km = ctx.range(&key("bottom_km"), l.bottom_km, 0.0, f64::MAX, false, "a finite number ≥ 0")?;
+            let bottom_km = ctx.range(
+                &key("bottom_km"),
+                l.bottom_km,
+                0.0,
+                f64::MAX,
+                false,
+                "a finite number ≥ 0",
+            )?;
             Ok(AerosolLayer {
                 bottom_km,
                 top_km: ctx.range(&key("top_km"), l.top_km, bottom_km, f64::MAX, true, "above bottom_km")?,
@@ -186,7 +193,10 @@ fn resolve_aerosol_layers(ctx: &Ctx, raw: &[RawAerosolLayer]) -> Result<Vec<Aero
     if let Some(w) = layers.windows(2).find(|w| w[1].bottom_km < w[0].top_km) {
         return Err(ctx.invalid(
             "atmosphere.aerosol_layers",
-            format!("[{}, {}] km and [{}, {}] km", w[0].bottom_km, w[0].top_km, w[1].bottom_km, w[1].top_km),
+            format!(
+                "[{}, {}] km and [{}, {}] km",
+                w[0].bottom_km, w[0].top_km, w[1].bottom_km, w[1].top_km
+            ),
             "layers overlap",
             "non-overlapping altitude intervals",
         ));

@@ -140,7 +140,19 @@ pub struct UvspecInput {
 /// Flux-line columns `output_user` may name (radiance columns are accepted
 /// and leave the flux line alone).
 pub const FLUX_COLUMNS: &[&str] = &[
-    "lambda", "wavelength", "zout", "sza", "edir", "edn", "eup", "eglo", "enet", "esum", "uavgdir", "uavgdn", "uavgup",
+    "lambda",
+    "wavelength",
+    "zout",
+    "sza",
+    "edir",
+    "edn",
+    "eup",
+    "eglo",
+    "enet",
+    "esum",
+    "uavgdir",
+    "uavgdn",
+    "uavgup",
     "uavg",
 ];
 const RADIANCE_COLUMNS: &[&str] = &["uu", "u0u", "umu", "phi"];
@@ -180,7 +192,10 @@ impl Line<'_> {
     }
 
     fn number(&self, i: usize) -> Result<f64> {
-        let w = self.args.get(i).ok_or_else(|| self.err(format!("`{}`: missing value", self.keyword)))?;
+        let w = self
+            .args
+            .get(i)
+            .ok_or_else(|| self.err(format!("`{}`: missing value", self.keyword)))?;
         w.parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
@@ -457,9 +472,10 @@ impl UvspecInput {
                     } else if line.args.is_empty() {
                         return Err(line.err("`polradtran`: missing value (e.g. nstokes 3)"));
                     } else {
-                        input
-                            .warnings
-                            .push(format!("{file}:{}: `polradtran {}` ignored (numerical setting)", line.number, line.args[0]));
+                        input.warnings.push(format!(
+                            "{file}:{}: `polradtran {}` ignored (numerical setting)",
+                            line.number, line.args[0]
+                        ));
                     }
                 }
                 "source" => {
@@ -478,8 +494,9 @@ impl UvspecInput {
                     if cols.is_empty() {
                         return Err(line.err("`output_user`: missing value (column names)"));
                     }
-                    if let Some(bad) =
-                        cols.iter().find(|c| !FLUX_COLUMNS.contains(&c.as_str()) && !RADIANCE_COLUMNS.contains(&c.as_str()))
+                    if let Some(bad) = cols
+                        .iter()
+                        .find(|c| !FLUX_COLUMNS.contains(&c.as_str()) && !RADIANCE_COLUMNS.contains(&c.as_str()))
                     {
                         return Err(line.err(format!(
                             "`output_user`: column `{bad}` not available (valid: {}, {})",

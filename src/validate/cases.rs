@@ -14,7 +14,10 @@ use crate::render::{Direction, Tally, render_directions};
 
 macro_rules! reference {
     ($path:literal) => {
-        ($path, include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/validation/", $path)))
+        (
+            $path,
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/validation/", $path)),
+        )
     };
 }
 
@@ -169,7 +172,14 @@ fn iprt_compare(
 }
 
 /// An IPRT A case: one Rayleigh layer 0–1 km, outputs at 0 and 1 km.
-fn iprt_a(reference: (&str, &str), tau: f64, depol: f64, albedo: f64, stride: usize, samples: u64) -> Result<Vec<Value>> {
+fn iprt_a(
+    reference: (&str, &str),
+    tau: f64,
+    depol: f64,
+    albedo: f64,
+    stride: usize,
+    samples: u64,
+) -> Result<Vec<Value>> {
     let t = table(reference)?;
     let sza: f64 = t
         .header("sza_deg")
@@ -227,7 +237,17 @@ fn korkin(sun_sampling: &str, samples: u64) -> Result<Vec<Value>> {
         let label = format!("sza {sza}");
         for ((r, d), tl) in rows.iter().zip(&dirs).zip(&tallies) {
             // Exact to 5e-6 relative of I.
-            push(&mut values, &label, *d, tl, &[0, 1, 2], &r[3..6], &[], 5e-6 * r[3], true);
+            push(
+                &mut values,
+                &label,
+                *d,
+                tl,
+                &[0, 1, 2],
+                &r[3..6],
+                &[],
+                5e-6 * r[3],
+                true,
+            );
         }
     }
     Ok(values)
@@ -266,7 +286,13 @@ fn pydisort(samples: u64) -> Result<Vec<Value>> {
         .iter()
         .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]])
         .collect();
-    keys.sort_by(|a, b| a.iter().zip(b).map(|(x, y)| x.total_cmp(y)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal));
+    keys.sort_by(|a, b| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     keys.dedup();
     let mut values = Vec::new();
     for [case, tau_r, tau_a, ssa, g, albedo, sza, level] in keys {

@@ -68,7 +68,14 @@ const SUN_EXCLUSION_DEG: f64 = 25.0;
 
 /// Compares the run of `inp` with the reference rows of `atmosphere` and
 /// `solver` (codes of the reference file).
-fn compare(inp: &str, atmosphere: f64, solver: f64, floor_rel: f64, exclude_sun: bool, samples: u64) -> Result<Vec<Value>> {
+fn compare(
+    inp: &str,
+    atmosphere: f64,
+    solver: f64,
+    floor_rel: f64,
+    exclude_sun: bool,
+    samples: u64,
+) -> Result<Vec<Value>> {
     let reference = Table::parse("uvspec_540nm_sza45.txt", REFERENCE, 9)?;
     let input = input(inp)?;
     let job = input.job(samples, 17, false)?;
@@ -79,21 +86,17 @@ fn compare(inp: &str, atmosphere: f64, solver: f64, floor_rel: f64, exclude_sun:
     for task in &job.tasks {
         let z = task.observer_altitude_km;
         let scene = job.scene_for(task, 0);
-        let tallies = render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0))
-            .swap_remove(0);
+        let tallies =
+            render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0)).swap_remove(0);
         for ((umu, phi, d), t) in directions.iter().zip(&tallies) {
             let row = reference
                 .rows
                 .iter()
                 .find(|r| {
-                    r[0] == atmosphere
-                        && r[1] == solver
-                        && r[2] == z
-                        && (r[3] - d.view_zenith_deg).abs() < 1e-3
-                        && {
-                            let da = (r[4] - d.azimuth_deg).rem_euclid(360.0);
-                            da.min(360.0 - da) < 1e-6
-                        }
+                    r[0] == atmosphere && r[1] == solver && r[2] == z && (r[3] - d.view_zenith_deg).abs() < 1e-3 && {
+                        let da = (r[4] - d.azimuth_deg).rem_euclid(360.0);
+                        da.min(360.0 - da) < 1e-6
+                    }
                 })
                 .ok_or_else(|| {
                     Error::data(
@@ -109,7 +112,17 @@ fn compare(inp: &str, atmosphere: f64, solver: f64, floor_rel: f64, exclude_sun:
             let from_sun = d.vector().dot(sun).clamp(-1.0, 1.0).acos().to_degrees();
             let label = format!("zout {z} umu {umu} phi {phi}");
             let in_stats = !exclude_sun || from_sun > SUN_EXCLUSION_DEG;
-            push(&mut values, &label, *d, t, components, &row[5..8], &[], floor_rel * row[5], in_stats);
+            push(
+                &mut values,
+                &label,
+                *d,
+                t,
+                components,
+                &row[5..8],
+                &[],
+                floor_rel * row[5],
+                in_stats,
+            );
         }
     }
     Ok(values)

@@ -16,10 +16,11 @@ use std::path::Path;
 use crate::error::Result;
 
 mod cases;
-mod libradtran;
+pub(crate) mod libradtran;
 pub mod plot;
 pub mod stats;
 
+pub use cases::iprt_b;
 pub use stats::{Statistics, Value, statistics};
 
 /// The verdict of a case.

@@ -161,7 +161,10 @@ pub fn write_ratio_plot(path: &Path, r: &CaseResult) -> Result<()> {
         3,
         &c.pixels,
         &[
-            ("Title", format!("{}: atmosim/reference per intensity, ±2 combined SE", r.case.name)),
+            (
+                "Title",
+                format!("{}: atmosim/reference per intensity, ±2 combined SE", r.case.name),
+            ),
             ("y_range", format!("{lo} to {hi}")),
             (
                 "statistics",
