@@ -213,18 +213,13 @@ pub fn format_csv(input: &UvspecInput, r: &UvspecResult) -> String {
         for ((umu, phi, _), t) in input.directions().iter().zip(&z.uu) {
             let (m, se) = (t.mean(), t.standard_error());
             s.push_str(&format!("{},{umu},{phi},{}", z.zout_km, r.wavelength_nm));
-            for c in 0..4 {
-                if r.polarized || c == 0 {
-                    s.push_str(&format!(",{:.9e}", r.scale * m[c]));
-                } else {
-                    s.push(',');
-                }
-            }
-            for c in 0..4 {
-                if r.polarized || c == 0 {
-                    s.push_str(&format!(",{:.4e}", r.scale * se[c]));
-                } else {
-                    s.push(',');
+            for (values, digits) in [(m, 9), (se, 4)] {
+                for (c, v) in values.iter().enumerate() {
+                    if r.polarized || c == 0 {
+                        s.push_str(&format!(",{:.*e}", digits, r.scale * v));
+                    } else {
+                        s.push(',');
+                    }
                 }
             }
             s.push('\n');
