@@ -532,13 +532,6 @@ impl UvspecInput {
         if input.zout.is_empty() {
             input.zout.push(Zout::Surface);
         }
-        if matches!(input.profile, ProfileChoice::File(_)) && input.zout.contains(&Zout::Top) {
-            return Err(Error::Uvspec {
-                file: file.to_string(),
-                line: input.line_of("zout"),
-                message: "`zout toa` needs a built-in AFGL atmosphere (top 120 km); give the altitude in km".into(),
-            });
-        }
         // Aerosol: an OPAC mixture or explicit layers.
         let line_of = |k: &str| input.line_of(k);
         match (&input.aerosol_species, &input.aerosol_files) {
@@ -638,10 +631,14 @@ impl UvspecInput {
             _ => "spherical",
         };
         let mut s = format!(
-            "# From the uvspec input {} (atmosim uvspec).\n[planet]\nradius_km = {:?}\ngeometry = \"{geometry}\"\n\
-             [atmosphere]\n",
+            "# From the uvspec input {} (atmosim uvspec).\n[planet]\nradius_km = {:?}\ngeometry = \"{geometry}\"\n",
             self.file, self.radius_km
         );
+        // uvspec uses the whole profile (atmosim's default top is 100 km).
+        if let Some(top) = self.profile_top_km() {
+            s.push_str(&format!("top_km = {top:?}\n"));
+        }
+        s.push_str("[atmosphere]\n");
         match &self.profile {
             ProfileChoice::Builtin(name) => s.push_str(&format!("profile = \"{name}\"\n")),
             ProfileChoice::File(path) => s.push_str(&format!("profile_file = {}\n", toml_string(path))),
@@ -719,13 +716,26 @@ impl UvspecInput {
     }
 
     /// An output altitude in km above the ground: `sur` is the ground
-    /// (0 km), `toa` the top of the AFGL profiles (120 km).
+    /// (0 km), `toa` the top of the profile (120 km for AFGL).
     pub fn zout_km(&self, z: Zout) -> f64 {
         match z {
             Zout::Km(v) => v,
             Zout::Surface => 0.0,
-            Zout::Top => 120.0,
+            Zout::Top => self.profile_top_km().unwrap_or(120.0),
         }
+    }
+
+    /// The top of the input's profile, the top of the atmosphere uvspec
+    /// uses; `None` for a file that cannot be read (the job reports it).
+    pub fn profile_top_km(&self) -> Option<f64> {
+        let profile = match &self.profile {
+            ProfileChoice::Builtin(name) => crate::profile::GasProfile::builtin(name)?.ok()?,
+            ProfileChoice::File(path) => {
+                let text = std::fs::read_to_string(self.dir.join(path)).ok()?;
+                crate::profile::GasProfile::parse(path, &text).ok()?
+            }
+        };
+        Some(profile.top_km())
     }
 
     /// The explicit aerosol layers of `aerosol_file tau|ssa|gg`, ascending.
