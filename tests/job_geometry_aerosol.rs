@@ -16,7 +16,11 @@ const ATMOSPHERE: &str = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwaveleng
 #[test]
 fn pseudo_spherical_direct_beam_is_the_spherical_one() {
     let text = |g: &str| format!("[planet]\nradius_km = 6370.0\ntop_km = 120.0\ngeometry = \"{g}\"\n{ATMOSPHERE}");
-    let (pp, ps, sph) = (job(&text("plane_parallel")), job(&text("pseudo_spherical")), job(&text("spherical")));
+    let (pp, ps, sph) = (
+        job(&text("plane_parallel")),
+        job(&text("pseudo_spherical")),
+        job(&text("spherical")),
+    );
     assert_eq!(ps.pseudo_spherical_radius_km(), Some(6370.0));
     assert!(ps.plane_parallel_transport() && pp.plane_parallel_transport() && !sph.plane_parallel_transport());
     for z in [0.0, 3.7, 10.0] {
@@ -68,7 +72,10 @@ fn aerosol_layers_refuse_a_mixture_overlaps_and_bad_values() {
     };
     let err = |text: String| Job::parse(&text, "t.toml", Path::new(".")).unwrap_err().to_string();
     let e = err(format!("[atmosphere]\naerosol = \"urban\"\n{}", layer(0.0, 1.0, "")));
-    assert!(e.contains("atmosphere.aerosol_layers") && e.contains("aerosol mixture"), "{e}");
+    assert!(
+        e.contains("atmosphere.aerosol_layers") && e.contains("aerosol mixture"),
+        "{e}"
+    );
     let e = err(format!("{base}{}{}", layer(0.0, 2.0, ""), layer(1.0, 3.0, "")));
     assert!(e.contains("overlap"), "{e}");
     let e = err(format!("{base}{}", layer(0.0, 1.0, "ssa = 1.5\n")));
