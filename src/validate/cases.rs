@@ -29,6 +29,7 @@ const IPRT_A2: (&str, &str) = reference!("published/iprt_a2.txt");
 const IPRT_B1: (&str, &str) = reference!("published/iprt_b1.txt");
 const IPRT_B2: (&str, &str) = reference!("published/iprt_b2.txt");
 const IPRT_B_LAYERS: (&str, &str) = reference!("published/iprt_b_layers.txt");
+const KOKHANOVSKY: (&str, &str) = reference!("published/kokhanovsky2010.txt");
 const KORKIN: (&str, &str) = reference!("published/korkin_b2_single_scatter.txt");
 const DISORT3: (&str, &str) = reference!("disort/disort_test3_128streams.txt");
 const PYDISORT: (&str, &str) = reference!("disort/pydisort.txt");
@@ -219,6 +220,23 @@ pub fn iprt_b(b2: bool, depol: f64, samples: u64) -> Result<Vec<Value>> {
     })
 }
 
+fn kokhanovsky(samples: u64) -> Result<Vec<Value>> {
+    let t = table(KOKHANOVSKY)?;
+    let rows: Vec<&Vec<f64>> = t.rows.iter().step_by(2).collect();
+    let text = format!(
+        "{}[sun]\nzenith_deg = 60.0\n[observer]\naltitude_km = 1.0\n[render]\nseed = 19\n",
+        layers_toml(&[(0.0, 1.0, 0.3262, 0.0)], 0.0)
+    );
+    let dirs = directions(&rows, 0, 1);
+    let tallies = render(&job(&text)?, 1.0, &dirs, samples);
+    let mut values = Vec::new();
+    for ((r, d), tl) in rows.iter().zip(&dirs).zip(&tallies) {
+        // 7 significant digits.
+        push(&mut values, "top", *d, tl, &[0, 1, 2], &r[2..5], &[], 5e-7 * r[2], true);
+    }
+    Ok(values)
+}
+
 fn korkin(sun_sampling: &str, samples: u64) -> Result<Vec<Value>> {
     let t = table(KORKIN)?;
     let atmosphere = iprt_b_toml(true, 0.03)?;
@@ -405,6 +423,16 @@ pub(super) fn published() -> Vec<Case> {
             default_samples: 10_000,
             informational: false,
             run: |n| iprt_b(true, 0.03, n),
+        },
+        Case {
+            name: "kokhanovsky2010",
+            title: "Kokhanovsky et al. 2010 Rayleigh benchmark, τ 0.3262, sza 60, reflection",
+            reference: "validation/published/kokhanovsky2010.txt (SMART-G validation file), every second direction",
+            setup: "plane-parallel, polarised, depolarisation 0, black ground, observer at the top",
+            floor: "5e-7 × I: 7 significant digits",
+            default_samples: 10_000,
+            informational: false,
+            run: kokhanovsky,
         },
         Case {
             name: "korkin_collision",
