@@ -83,6 +83,41 @@ pub struct ProfileSpec {
     pub aerosol: Option<Aerosol>,
     /// Scale the aerosol boundary layer to this ground visibility.
     pub visibility_km: Option<f64>,
+    /// Explicit aerosol layers (optical depth, single-scattering albedo,
+    /// Henyey–Greenstein g; the same at every wavelength) instead of an OPAC
+    /// mixture: uvspec's `aerosol_file tau|ssa|gg`.
+    pub aerosol_layers: Option<Vec<AerosolLayer>>,
+}
+
+/// One explicit aerosol layer on a profile atmosphere. A gas layer gets the
+/// optical depth of the overlapping part of each aerosol layer (optical
+/// depth uniform in altitude inside an aerosol layer); its single-scattering
+/// albedo and g are the τ- and τ·ω-weighted means.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AerosolLayer {
+    pub bottom_km: f64,
+    pub top_km: f64,
+    pub tau: f64,
+    pub ssa: f64,
+    pub g: f64,
+}
+
+/// The aerosol coefficients (ext, sca, g) of the slab [z0, z1] from explicit
+/// aerosol layers.
+fn explicit_aerosol(layers: &[AerosolLayer], z0: f64, z1: f64) -> (f64, f64, f64) {
+    let (mut ext, mut sca, mut g_sca) = (0.0, 0.0, 0.0);
+    for l in layers {
+        let overlap = (z1.min(l.top_km) - z0.max(l.bottom_km)).max(0.0);
+        if overlap > 0.0 {
+            let tau = l.tau * overlap / (l.top_km - l.bottom_km);
+            ext += tau;
+            sca += tau * l.ssa;
+            g_sca += tau * l.ssa * l.g;
+        }
+    }
+    let dz = z1 - z0;
+    let g = if sca > 0.0 { g_sca / sca } else { 0.0 };
+    (ext / dz, sca / dz, g)
 }
 
 /// What failed while building a profile atmosphere, for the job layer to
@@ -283,6 +318,10 @@ impl Atmosphere {
                             o.sigma_aerosol_ext = ao.sigma_ext;
                             o.sigma_aerosol_sca = ao.sigma_sca;
                             o.aerosol_g = ao.g;
+                        }
+                        if let Some(layers) = &spec.aerosol_layers {
+                            let (z0, z1) = (profile.levels[i].z_km, profile.levels[i + 1].z_km);
+                            (o.sigma_aerosol_ext, o.sigma_aerosol_sca, o.aerosol_g) = explicit_aerosol(layers, z0, z1);
                         }
                         o
                     })

@@ -26,6 +26,11 @@ pub enum Error {
     #[error("{source_name}: {message}")]
     Data { source_name: String, message: String },
 
+    /// A uvspec input file (`atmosim uvspec`) has a line atmosim cannot use:
+    /// an unknown keyword, a missing or bad value, an unsupported option.
+    #[error("{file}:{line}: {message}")]
+    Uvspec { file: String, line: usize, message: String },
+
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {
@@ -40,7 +45,7 @@ impl Error {
     /// named, values out of range); the binary exits with code 2 for these.
     pub fn is_user_error(&self) -> bool {
         match self {
-            Error::JobSyntax { .. } | Error::InvalidValue { .. } | Error::Data { .. } => true,
+            Error::JobSyntax { .. } | Error::InvalidValue { .. } | Error::Data { .. } | Error::Uvspec { .. } => true,
             Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
         }
     }

@@ -108,6 +108,12 @@ pub struct Scene {
     /// Approximate depth toward the sun: enables sun-aware next-event
     /// points along forced flights (see `sun_along_flight`).
     pub sun_depth: Option<SunDepth>,
+    /// Pseudo-spherical geometry (with `geometry` plane-parallel): the
+    /// direct beam reaching a point at altitude z is attenuated along its
+    /// path through spherical shells of this planet radius (km), as
+    /// DISORT's pseudo-spherical mode does; everything else stays
+    /// plane-parallel.
+    pub pseudo_spherical_radius_km: Option<f64>,
 }
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
@@ -441,11 +447,47 @@ impl Scene {
     }
 
     fn sun_transmittance(&self, ray: Ray, sampler: &mut Sampler) -> f64 {
+        let (geometry, ray) = self.sun_ray(ray);
         match self.settings.sun_transmittance {
-            SunTransmittance::Analytic => tracking::analytic_transmittance(&self.medium, &self.geometry, &ray),
+            SunTransmittance::Analytic => tracking::analytic_transmittance(&self.medium, &geometry, &ray),
             SunTransmittance::RatioTracking => {
-                tracking::ratio_tracking_transmittance(&self.medium, &self.geometry, &ray, sampler)
+                tracking::ratio_tracking_transmittance(&self.medium, &geometry, &ray, sampler)
             }
+        }
+    }
+
+    /// The geometry and ray along which the direct beam toward `ray.origin`
+    /// is attenuated: the ray itself, or in pseudo-spherical geometry the
+    /// same direction from the point at the same altitude above the top of
+    /// a sphere (where the local vertical is +z, as in the slab).
+    pub fn sun_ray(&self, ray: Ray) -> (Geometry, Ray) {
+        match (self.pseudo_spherical_radius_km, self.geometry) {
+            (Some(radius_km), Geometry::PlaneParallel) => (
+                Geometry::Spherical { radius_km },
+                Ray {
+                    origin: DVec3::new(0.0, 0.0, radius_km + ray.origin.z),
+                    ..ray
+                },
+            ),
+            _ => (self.geometry, ray),
+        }
+    }
+
+    /// Transmittance of the direct beam from the top of the atmosphere to
+    /// the observer at `altitude_km` (0 for a sun below the horizon).
+    pub fn direct_transmittance(&self, altitude_km: f64) -> f64 {
+        let origin = self.observer_position(altitude_km);
+        let s = self.sun.direction;
+        let mu0 = s.dot(self.geometry.up(origin));
+        if mu0 <= 0.0 {
+            return 0.0;
+        }
+        match tracking::layer_at(self.medium.levels_km(), altitude_km, mu0) {
+            Some(layer) => {
+                let (geometry, ray) = self.sun_ray(Ray { origin, dir: s, layer });
+                tracking::analytic_transmittance(&self.medium, &geometry, &ray)
+            }
+            None => 1.0,
         }
     }
 

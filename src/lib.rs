@@ -49,6 +49,8 @@ pub mod task_output;
 pub mod tracking;
 pub mod transmittance;
 pub mod unit;
+pub mod uvspec;
+pub mod validate;
 pub mod visibility;
 
 pub use error::{Error, Result};

@@ -34,6 +34,12 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a libRadtran uvspec input file (a subset of its keywords, see
+    /// README) and print uvspec-style output.
+    Uvspec(UvspecArgs),
+    /// Run validation cases against external references (published
+    /// benchmarks, DISORT, libRadtran) and write a report.
+    Validate(ValidateArgs),
     /// Print the per-layer optical depths of a job's atmosphere (the built-in
     /// default atmosphere when no job file is given).
     Atmosphere {
@@ -307,6 +313,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             report::write_atmosphere(&job.atmosphere, format, &mut out).context("writing to stdout")?;
             out.flush().context("writing to stdout")?;
         }
+        Command::Uvspec(args) => run_uvspec(args)?,
+        Command::Validate(args) => return run_validate(args),
     }
     Ok(())
 }
@@ -817,4 +825,155 @@ fn load_job(path: Option<&PathBuf>) -> anyhow::Result<Job> {
         Some(p) => Job::from_file(p)?,
         None => Job::builtin_default()?,
     })
+}
+
+#[derive(clap::Args)]
+struct UvspecArgs {
+    /// uvspec input file.
+    input: PathBuf,
+    /// Output format: uvspec's text blocks or one CSV row per value.
+    #[arg(long, value_enum, default_value_t = UvspecFormat::Uvspec)]
+    format: UvspecFormat,
+    /// Paths per direction (and per flux estimate).
+    #[arg(long, default_value_t = 100_000)]
+    samples: u64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Run `pseudospherical` inputs in full spherical geometry instead of
+    /// atmosim's pseudo-spherical one (which reproduces uvspec).
+    #[arg(long)]
+    full_spherical: bool,
+    /// Print the atmosim job the input maps to and stop.
+    #[arg(long)]
+    print_job: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum UvspecFormat {
+    Uvspec,
+    Csv,
+}
+
+#[derive(clap::Args)]
+struct ValidateArgs {
+    /// Cases to run (see --list).
+    cases: Vec<String>,
+    /// Run every case.
+    #[arg(long)]
+    all: bool,
+    /// List the cases and stop.
+    #[arg(long)]
+    list: bool,
+    /// Paths per direction for every case (default: each case's own, sized for CI).
+    #[arg(long)]
+    samples: Option<u64>,
+    /// Directory for report.md and the plots.
+    #[arg(long, default_value = "validation-report")]
+    out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+fn run_uvspec(args: UvspecArgs) -> anyhow::Result<()> {
+    let input = atmosim::uvspec::UvspecInput::from_file(&args.input)?;
+    for w in &input.warnings {
+        eprintln!("warning: {w}");
+    }
+    if args.samples == 0 {
+        anyhow::bail!(atmosim::Error::InvalidValue {
+            file: "command line".into(),
+            key: "--samples".into(),
+            value: "0".into(),
+            reason: "no samples".into(),
+            valid: "at least 1".into(),
+        });
+    }
+    if args.print_job {
+        print!("{}", input.job_toml(args.samples, args.seed, args.full_spherical));
+        return Ok(());
+    }
+    let job = input.job(args.samples, args.seed, args.full_spherical)?;
+    let pool = thread_pool(args.threads)?;
+    let result = pool.install(|| atmosim::uvspec::run(&input, &job))?;
+    let text = match args.format {
+        UvspecFormat::Uvspec => atmosim::uvspec::format_uvspec(&input, &result),
+        UvspecFormat::Csv => atmosim::uvspec::format_csv(&input, &result),
+    };
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes()).context("writing to stdout")?;
+    out.flush().context("writing to stdout")?;
+    Ok(())
+}
+
+/// Runs the validation cases; Err (exit 1) when one fails.
+fn run_validate(args: ValidateArgs) -> anyhow::Result<()> {
+    use atmosim::validate;
+    if args.list {
+        for c in validate::cases() {
+            let kind = if c.informational { " (informational)" } else { "" };
+            println!("{:<24} {}{kind}", c.name, c.title);
+        }
+        return Ok(());
+    }
+    let cases = if args.all {
+        validate::cases()
+    } else if args.cases.is_empty() {
+        anyhow::bail!(atmosim::Error::InvalidValue {
+            file: "command line".into(),
+            key: "CASE".into(),
+            value: "(none)".into(),
+            reason: "no case named".into(),
+            valid: "one or more case names (atmosim validate --list) or --all".into(),
+        });
+    } else {
+        args.cases
+            .iter()
+            .map(|name| {
+                validate::find(name).ok_or_else(|| atmosim::Error::InvalidValue {
+                    file: "command line".into(),
+                    key: "CASE".into(),
+                    value: name.clone(),
+                    reason: "unknown case".into(),
+                    valid: validate::cases().iter().map(|c| c.name).collect::<Vec<_>>().join(", "),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?
+    };
+    if args.samples == Some(0) {
+        anyhow::bail!(atmosim::Error::InvalidValue {
+            file: "command line".into(),
+            key: "--samples".into(),
+            value: "0".into(),
+            reason: "no samples".into(),
+            valid: "at least 1".into(),
+        });
+    }
+    let pool = thread_pool(args.threads)?;
+    let mut results = Vec::with_capacity(cases.len());
+    for case in &cases {
+        let r = pool.install(|| validate::run(case, args.samples))?;
+        println!("{}", validate::summary(&r));
+        results.push(r);
+    }
+    validate::write_report(&args.out, &results)?;
+    println!("\n{}", validate::TABLE_HEADER);
+    for r in &results {
+        println!("{}", validate::report_row(r));
+    }
+    println!("wrote {}", args.out.join("report.md").display());
+    let failed: Vec<&str> = results
+        .iter()
+        .filter(|r| r.verdict == validate::Verdict::Fail)
+        .map(|r| r.case.name)
+        .collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        anyhow::bail!("{} validation case(s) failed: {}", failed.len(), failed.join(", "))
+    }
 }

@@ -11,7 +11,6 @@ use crate::integrator::{MAX_ALBEDOS, Radiances, Scene};
 use crate::sampler::Sampler;
 use crate::spectral::{SpectralRadiances, SpectralScene};
 use crate::stokes::Stokes;
-use crate::tracking::{self, Ray};
 
 /// Samples per block: the unit of parallel work and of the summation order.
 pub const BLOCK: u64 = 1024;
@@ -290,15 +289,8 @@ pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler) -
 /// μ0·T_sun, from the exact transmittance along the sun's direction.
 pub fn direct_horizontal(scene: &Scene, altitude_km: f64) -> f64 {
     let origin = scene.observer_position(altitude_km);
-    let s = scene.sun.direction;
-    let mu0 = s.dot(scene.geometry.up(origin));
-    match tracking::layer_at(scene.medium.levels_km(), altitude_km, mu0) {
-        Some(layer) if mu0 > 0.0 => {
-            mu0 * tracking::analytic_transmittance(&scene.medium, &scene.geometry, &Ray { origin, dir: s, layer })
-        }
-        None if mu0 > 0.0 => mu0,
-        _ => 0.0,
-    }
+    let mu0 = scene.sun.direction.dot(scene.geometry.up(origin));
+    mu0.max(0.0) * scene.direct_transmittance(altitude_km)
 }
 
 impl Fluxes {

@@ -14,7 +14,6 @@ use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
 use crate::shard::Shard;
 use crate::solar::SolarSpectrum;
-use crate::tracking::{self, Ray};
 use crate::unit::{self, Control, Layout};
 
 /// The file an image task writes its Stokes images to.
@@ -167,26 +166,7 @@ fn sun_csv(job: &Job, task: &Task, camera: &Camera, scale: &dyn Fn(f64) -> f64) 
     );
     let pos = camera.point_of(task.sun.direction);
     for (w, &lambda) in job.wavelengths_nm.iter().enumerate() {
-        let scene = job.scene_for(task, w);
-        let origin = scene.observer_position(task.observer_altitude_km);
-        let up = scene.geometry.up(origin);
-        let t = match tracking::layer_at(
-            scene.medium.levels_km(),
-            task.observer_altitude_km,
-            task.sun.direction.dot(up),
-        ) {
-            Some(layer) => tracking::analytic_transmittance(
-                &scene.medium,
-                &scene.geometry,
-                &Ray {
-                    origin,
-                    dir: task.sun.direction,
-                    layer,
-                },
-            ),
-            None if task.sun.direction.dot(up) > 0.0 => 1.0,
-            None => 0.0,
-        };
+        let t = job.scene_for(task, w).direct_transmittance(task.observer_altitude_km);
         let e = t * scale(lambda);
         let r = task.sun.angular_radius;
         let radiance = if r > 0.0 {

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use super::Ctx;
-use super::raw::{RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
+use super::raw::{RawAerosolLayer, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
 use crate::aerosol::Aerosol;
-use crate::atmosphere::{BuildError, ExplicitLayer, ProfileSpec};
+use crate::atmosphere::{AerosolLayer, BuildError, ExplicitLayer, ProfileSpec};
 use crate::data;
 use crate::error::{Error, Result};
 use crate::ozone::OzoneModel;
@@ -76,7 +76,23 @@ pub(super) fn resolve_profile_spec(
         }
         Some(du) => Some(ctx.range("atmosphere.ozone_column_du", du, 0.0, 2000.0, false, "0 to 2000 DU")?),
     };
-    let aerosol_name = atm.aerosol.as_deref().unwrap_or("continental_average");
+    let aerosol_layers = match &atm.aerosol_layers {
+        None => None,
+        Some(_) if atm.aerosol.as_deref().is_some_and(|a| a != "none") => {
+            return Err(ctx.invalid(
+                "atmosphere.aerosol_layers",
+                "(given)",
+                "cannot be combined with an aerosol mixture (atmosphere.aerosol)",
+                "either [[atmosphere.aerosol_layers]] or atmosphere.aerosol",
+            ));
+        }
+        Some(layers) => Some(resolve_aerosol_layers(ctx, layers)?),
+    };
+    let aerosol_name = match (&atm.aerosol, &aerosol_layers) {
+        (Some(name), _) => name.as_str(),
+        (None, Some(_)) => "none",
+        (None, None) => "continental_average",
+    };
     let aerosol = if aerosol_name == "none" {
         None
     } else {
@@ -103,7 +119,7 @@ pub(super) fn resolve_profile_spec(
             return Err(ctx.invalid(
                 "atmosphere.visibility_km",
                 "(given)",
-                "scales the aerosol, but atmosphere.aerosol = \"none\"",
+                "scales an OPAC aerosol mixture, but there is none (atmosphere.aerosol = \"none\" or aerosol_layers)",
                 "leave it out, or name an aerosol mixture",
             ));
         }
@@ -141,10 +157,51 @@ pub(super) fn resolve_profile_spec(
             ozone_column_du,
             aerosol,
             visibility_km: None,
+            aerosol_layers,
         },
         name,
         visibilities,
     ))
+}
+
+/// Explicit aerosol layers: non-overlapping intervals, τ ≥ 0, ω in [0, 1],
+/// g in (−1, 1).
+fn resolve_aerosol_layers(ctx: &Ctx, raw: &[RawAerosolLayer]) -> Result<Vec<AerosolLayer>> {
+    let mut layers = raw
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let key = |k: &str| format!("atmosphere.aerosol_layers[{i}].{k}");
+            let bottom_km = ctx.range(
+                &key("bottom_km"),
+                l.bottom_km,
+                0.0,
+                f64::MAX,
+                false,
+                "a finite number ≥ 0",
+            )?;
+            Ok(AerosolLayer {
+                bottom_km,
+                top_km: ctx.range(&key("top_km"), l.top_km, bottom_km, f64::MAX, true, "above bottom_km")?,
+                tau: ctx.range(&key("tau"), l.tau, 0.0, f64::MAX, false, "a finite number ≥ 0")?,
+                ssa: ctx.range(&key("ssa"), l.ssa, 0.0, 1.0, false, "0 to 1")?,
+                g: ctx.range(&key("g"), l.g, -1.0, 0.999_999, true, "greater than -1, less than 1")?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    layers.sort_by(|a, b| a.bottom_km.total_cmp(&b.bottom_km));
+    if let Some(w) = layers.windows(2).find(|w| w[1].bottom_km < w[0].top_km) {
+        return Err(ctx.invalid(
+            "atmosphere.aerosol_layers",
+            format!(
+                "[{}, {}] km and [{}, {}] km",
+                w[0].bottom_km, w[0].top_km, w[1].bottom_km, w[1].top_km
+            ),
+            "layers overlap",
+            "non-overlapping altitude intervals",
+        ));
+    }
+    Ok(layers)
 }
 
 pub(super) fn resolve_layers(ctx: &Ctx, raw: &[RawLayer]) -> Result<Vec<ExplicitLayer>> {

@@ -44,6 +44,10 @@ pub use render::{RenderSpec, Sensor, Units};
 pub enum GeometryKind {
     Spherical,
     PlaneParallel,
+    /// Plane-parallel transport with the direct solar beam attenuated along
+    /// its path through spherical shells (DISORT's and uvspec's
+    /// `pseudospherical`): reproduces those runs, not the real sky.
+    PseudoSpherical,
 }
 
 /// The planet: radius, top of the atmosphere and geometry.
@@ -154,8 +158,20 @@ impl Job {
             GeometryKind::Spherical => Geometry::Spherical {
                 radius_km: self.planet.radius_km,
             },
-            GeometryKind::PlaneParallel => Geometry::PlaneParallel,
+            GeometryKind::PlaneParallel | GeometryKind::PseudoSpherical => Geometry::PlaneParallel,
         }
+    }
+
+    /// Whether paths are traced between horizontally infinite slabs
+    /// (plane-parallel and pseudo-spherical geometry).
+    pub fn plane_parallel_transport(&self) -> bool {
+        self.planet.geometry != GeometryKind::Spherical
+    }
+
+    /// The planet radius for the direct beam's spherical path in
+    /// pseudo-spherical geometry, `None` otherwise.
+    pub fn pseudo_spherical_radius_km(&self) -> Option<f64> {
+        (self.planet.geometry == GeometryKind::PseudoSpherical).then_some(self.planet.radius_km)
     }
 
     /// The tasks of the transmittance tables: one per visibility and
@@ -179,13 +195,15 @@ impl Job {
     /// sun connections (which shared paths do not have, and which matter more
     /// for a low sun); `None` otherwise.
     pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
-        let plane_parallel = self.planet.geometry == GeometryKind::PlaneParallel;
+        let plane_parallel = self.plane_parallel_transport();
         let sun_aware = self
             .render
             .settings
             .sun_sampling
             .is_sun_aware(task.sun.zenith_deg, plane_parallel);
-        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 || sun_aware {
+        // Shared paths have no pseudo-spherical direct beam.
+        let pseudo = self.pseudo_spherical_radius_km().is_some();
+        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 || sun_aware || pseudo {
             return None;
         }
         let media: Vec<Medium> = (0..self.wavelengths_nm.len())
@@ -212,7 +230,7 @@ impl Job {
     pub fn scene_for(&self, task: &Task, w: usize) -> Scene {
         let medium = Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale);
         let settings = self.render.settings;
-        let plane_parallel = self.planet.geometry == GeometryKind::PlaneParallel;
+        let plane_parallel = self.plane_parallel_transport();
         let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg, plane_parallel);
         let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant())
             .then(|| SunDepth::new(&medium, &self.geometry(), task.sun.direction));
@@ -223,6 +241,7 @@ impl Job {
             albedos: self.render.albedos.clone(),
             settings,
             sun_depth,
+            pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
         }
     }
 
@@ -298,6 +317,7 @@ impl Job {
                 ("rayleigh", atm.rayleigh.is_some()),
                 ("aerosol", atm.aerosol.is_some()),
                 ("visibility_km", atm.visibility_km.is_some()),
+                ("aerosol_layers", atm.aerosol_layers.is_some()),
             ]
             .iter()
             .filter(|(_, g)| *g)

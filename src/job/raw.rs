@@ -41,6 +41,19 @@ pub(super) struct RawAtmosphere {
     pub(super) aerosol: Option<String>,
     pub(super) visibility_km: Option<OneOrMany>,
     pub(super) layers: Option<Vec<RawLayer>>,
+    pub(super) aerosol_layers: Option<Vec<RawAerosolLayer>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawAerosolLayer {
+    pub(super) bottom_km: f64,
+    pub(super) top_km: f64,
+    pub(super) tau: f64,
+    #[serde(default = "one")]
+    pub(super) ssa: f64,
+    #[serde(default)]
+    pub(super) g: f64,
 }
 
 #[derive(Debug, Deserialize)]
