@@ -20,13 +20,16 @@ use std::time::{Duration, Instant};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::film::{self, ImageLayer, PixelSampling};
-use crate::integrator::Scene;
+use glam::DVec3;
+
+use crate::integrator::{Radiances, Scene};
 use crate::job::{Job, Sensor, Task};
 use crate::output::{FluxRow, RadianceRow};
-use crate::render::{self, BLOCK, Fluxes, RenderResult, Tally};
+use crate::render::{self, BLOCK, Fluxes, RenderResult, SampleValues, Tally};
+use crate::sampler::Sampler;
 use crate::shard::Shard;
 use crate::sky_image::SkyImage;
-use crate::spectral::SpectralScene;
+use crate::spectral::{SpectralRadiances, SpectralScene};
 
 /// Where an estimate's radiance comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -367,10 +370,6 @@ pub fn run(
         shared,
         single: (0..job.wavelengths_nm.len()).map(|_| None).collect(),
     };
-    let directions = match &job.render.sensor {
-        Sensor::Directions(d) => d.as_slice(),
-        Sensor::Image(_) => &[],
-    };
     let mut last_checkpoint = Instant::now();
     let mut wave_paths = layout.wave_paths;
     for e in 0..layout.estimates.len() {
@@ -386,67 +385,21 @@ pub fn run(
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
             match est.kind {
-                EstimateKind::Direction { source, direction } => {
-                    let dir = directions[direction];
-                    let (v, phi) = (dir.vector(), dir.azimuth_deg.to_radians());
-                    match source {
-                        Source::Shared => {
-                            let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                            render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
-                                scene.radiance_sample(altitude_km, v, phi, s)
-                            })
-                        }
-                        Source::Wavelength(w) => {
-                            let scene = scenes.single(w);
-                            render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
-                                scene.radiance_sample(altitude_km, v, phi, s)
-                            })
-                        }
+                EstimateKind::Direction { source, .. } | EstimateKind::Pixels { source } => match source {
+                    Source::Shared => {
+                        let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
+                        radiance_wave(scene, job, layout, &est, work.clone(), tallies, altitude_km);
                     }
-                }
+                    Source::Wavelength(w) => {
+                        let scene = scenes.single(w);
+                        radiance_wave(scene, job, layout, &est, work.clone(), tallies, altitude_km);
+                    }
+                },
                 EstimateKind::Flux { wavelength, up } => {
                     let scene = scenes.single(wavelength);
                     render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
                         render::flux_sample(scene, altitude_km, up, s)
                     })
-                }
-                EstimateKind::Pixels { source } => {
-                    let Sensor::Image(camera) = &job.render.sensor else {
-                        unreachable!("pixel estimates belong to image sensors")
-                    };
-                    let sampling = PixelSampling {
-                        camera,
-                        weights: &layout.weights,
-                        filter: job.render.pixel_filter,
-                        samples: layout.samples,
-                        seed: est.keys[0],
-                        key: est.keys[1],
-                    };
-                    let quiet = |_| {};
-                    match source {
-                        Source::Shared => {
-                            let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                            film::render_pixels_into(
-                                &sampling,
-                                work.clone(),
-                                tallies,
-                                est.values,
-                                &quiet,
-                                |v, phi, s| scene.radiance_sample(altitude_km, v, phi, s),
-                            )
-                        }
-                        Source::Wavelength(w) => {
-                            let scene = scenes.single(w);
-                            film::render_pixels_into(
-                                &sampling,
-                                work.clone(),
-                                tallies,
-                                est.values,
-                                &quiet,
-                                |v, phi, s| scene.radiance_sample(altitude_km, v, phi, s),
-                            )
-                        }
-                    }
                 }
             }
             state.done[e] += work.end - work.start;
@@ -466,6 +419,64 @@ pub fn run(
         }
     }
     Ok(Outcome::Complete)
+}
+
+/// A scene that gives a sample's radiance along a viewing direction: one
+/// wavelength ([`Scene`]) or all of them along shared paths
+/// ([`SpectralScene`]).
+trait RadianceSource: Sync {
+    type Values: SampleValues;
+    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> Self::Values;
+}
+
+impl RadianceSource for Scene {
+    type Values = Radiances;
+    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> Radiances {
+        self.radiance_sample(altitude_km, v, phi, s)
+    }
+}
+
+impl RadianceSource for SpectralScene {
+    type Values = SpectralRadiances;
+    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> SpectralRadiances {
+        self.radiance_sample(altitude_km, v, phi, s)
+    }
+}
+
+/// One wave (`work`) of a direction's sample blocks or of every pixel's
+/// samples, added to `tallies`.
+fn radiance_wave<S: RadianceSource>(
+    scene: &S,
+    job: &Job,
+    layout: &Layout,
+    est: &Estimate,
+    work: std::ops::Range<u64>,
+    tallies: &mut [Tally],
+    altitude_km: f64,
+) {
+    match (&job.render.sensor, est.kind) {
+        (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
+            let dir = directions[direction];
+            let (v, phi) = (dir.vector(), dir.azimuth_deg.to_radians());
+            render::tally_blocks(work, layout.samples, est.keys, tallies, |s| {
+                scene.sample(altitude_km, v, phi, s)
+            })
+        }
+        (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
+            let sampling = PixelSampling {
+                camera,
+                weights: &layout.weights,
+                filter: job.render.pixel_filter,
+                samples: layout.samples,
+                seed: est.keys[0],
+                key: est.keys[1],
+            };
+            film::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, phi, s| {
+                scene.sample(altitude_km, v, phi, s)
+            })
+        }
+        _ => unreachable!("direction estimates belong to directions sensors, pixels to images"),
+    }
 }
 
 /// A task's sums as a `directions` result: radiance rows (wavelength,

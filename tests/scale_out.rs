@@ -11,6 +11,9 @@ use std::time::{Duration, Instant};
 use assert_cmd::Command;
 use assert_cmd::cargo::CommandCargoExt;
 use atmosim::openexr::read_exr;
+use common::csv_values;
+
+mod common;
 
 fn atmosim() -> Command {
     Command::cargo_bin("atmosim").unwrap()
@@ -44,35 +47,6 @@ fn run_ok(dir: &Path, args: &[&str]) -> String {
     let log = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(out.status.success(), "atmosim {args:?} failed:\n{log}");
     log
-}
-
-/// All numbers of the CSV files of every task under `out`, by file.
-fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
-    let mut files = Vec::new();
-    let mut dirs = vec![out.to_path_buf()];
-    while let Some(d) = dirs.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                dirs.push(p);
-            } else if p.extension().is_some_and(|x| x == "csv") {
-                files.push(p);
-            }
-        }
-    }
-    files.sort();
-    files
-        .iter()
-        .map(|p| {
-            let text = std::fs::read_to_string(p).unwrap();
-            let values = text
-                .lines()
-                .skip(1)
-                .flat_map(|l| l.split(',').map(|x| x.parse::<f64>().unwrap()).collect::<Vec<_>>())
-                .collect();
-            (p.strip_prefix(out).unwrap().display().to_string(), values)
-        })
-        .collect()
 }
 
 fn assert_close(a: &[(String, Vec<f64>)], b: &[(String, Vec<f64>)], rel: f64) {

@@ -13,6 +13,9 @@ use std::process::Command as Process;
 use std::time::Instant;
 
 use assert_cmd::Command;
+use common::csv_values;
+
+mod common;
 
 fn atmosim() -> Command {
     Command::cargo_bin("atmosim").unwrap()
@@ -39,28 +42,6 @@ fn slurm_available() -> bool {
         eprintln!("SKIPPED: no SLURM cluster ({why}); .ci/run starts one");
     }
     ok
-}
-
-fn values(out: &Path) -> Vec<(String, Vec<f64>)> {
-    let mut files: Vec<_> = std::fs::read_dir(out)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.is_dir() && p.join("radiance.csv").exists())
-        .flat_map(|p| [p.join("radiance.csv"), p.join("fluxes.csv")])
-        .collect();
-    files.sort();
-    files
-        .iter()
-        .map(|p| {
-            let text = std::fs::read_to_string(p).unwrap();
-            let v = text
-                .lines()
-                .skip(1)
-                .flat_map(|l| l.split(',').map(|x| x.parse::<f64>().unwrap()).collect::<Vec<_>>())
-                .collect();
-            (p.strip_prefix(out).unwrap().display().to_string(), v)
-        })
-        .collect()
 }
 
 fn sbatch_wait(script: &Path) -> String {
@@ -126,7 +107,7 @@ fn slurm_array_of_tasks_and_shards_merges_to_a_single_render() {
         .output()
         .unwrap();
     assert!(o.status.success());
-    let (a, b) = (values(&d.join("single")), values(&d.join("cluster")));
+    let (a, b) = (csv_values(&d.join("single")), csv_values(&d.join("cluster")));
     assert_eq!(a.len(), 4);
     assert_eq!(a.len(), b.len());
     for ((na, va), (nb, vb)) in a.iter().zip(&b) {

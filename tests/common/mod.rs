@@ -1,7 +1,7 @@
 //! Helpers shared by the validation tests: reading the project's reference
 //! tables, building jobs, and the z statistics of the issue (z = difference
 //! over the combined standard error, Šidák threshold for a 1 % family-wise
-//! false-alarm rate).
+//! false-alarm rate), and reading back the CSV outputs of a render.
 #![allow(dead_code)]
 
 use std::path::Path;
@@ -97,4 +97,33 @@ pub fn layers_toml(layers: &[(f64, f64, f64, f64)], depol: f64) -> String {
         ));
     }
     s
+}
+
+/// All numbers of the CSV files of every task under `out`, by file.
+pub fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
+    let mut files = Vec::new();
+    let mut dirs = vec![out.to_path_buf()];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "csv") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files
+        .iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(p).unwrap();
+            let values = text
+                .lines()
+                .skip(1)
+                .flat_map(|l| l.split(',').map(|x| x.parse::<f64>().unwrap()).collect::<Vec<_>>())
+                .collect();
+            (p.strip_prefix(out).unwrap().display().to_string(), values)
+        })
+        .collect()
 }
