@@ -38,7 +38,7 @@ use crate::medium::{Medium, PointCoefficients};
 use crate::phase::{PhaseFunction, orthonormal_basis};
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
-use crate::stokes::{Mueller, Stokes, StokesRotation, meridian_frame};
+use crate::stokes::{Mueller, PhaseMatrix, Stokes, StokesRotation, meridian_frame};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::tracking::{self, FlightEnd, Ray, Segment};
@@ -186,19 +186,18 @@ impl Scene {
 
     fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
         let forced = self.settings.forced_collisions && self.medium.is_piecewise_constant();
-        let mut segments = Vec::with_capacity(2 * self.medium.levels_km().len());
-        let mut parts = Vec::with_capacity(2 * self.medium.levels_km().len());
+        // The walked segments of a flight, for sun-aware points and
+        // stratified sun connections only (allocated on first use).
+        let walk_segments = self.sun_depth.is_some() || self.settings.sun_samples_per_flight > 1;
+        let mut segments = Vec::new();
+        let mut parts = Vec::new();
         loop {
             let mut sun_done = false;
             let (flight, stratify) = if forced {
-                let f = tracking::forced_flight(
-                    &self.medium,
-                    &self.geometry,
-                    &ray,
-                    sampler,
-                    self.reflects(),
-                    &mut segments,
-                );
+                let f = tracking::forced_flight(&self.medium, &self.geometry, &ray, sampler, self.reflects());
+                if walk_segments {
+                    tracking::segments_of(&self.medium, &self.geometry, &ray, &mut segments);
+                }
                 // Sun-aware next-event estimation along the whole flight,
                 // with the throughput before the flight's own weight.
                 if self.sun_depth.is_some() && !self.order_done(path.order) {
@@ -260,9 +259,8 @@ impl Scene {
                     // Sample the direction the light came from.
                     let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
-                    let (m, p11) = mixture(&coeffs, k_in.dot(k_out));
-                    let weight = m * (1.0 / p11);
-                    path.scatter(&weight, k_in, k_out, self.settings.polarized);
+                    let m = mixture(&coeffs, k_in.dot(k_out));
+                    path.scatter(&m.scaled(1.0 / m.p11), k_in, k_out, self.settings.polarized);
                     if !path.roulette(sampler) {
                         return;
                     }
@@ -440,7 +438,7 @@ impl Scene {
             return;
         }
         let k_in = -s;
-        let (m, _) = mixture(coeffs, k_in.dot(k_out));
+        let m = mixture(coeffs, k_in.dot(k_out));
         // Phase matrix normalised per steradian: P/(4π).
         let column = path.rotated_column(&m, k_in, k_out, self.settings.polarized);
         path.add(column * (tr * INV_4PI));
@@ -518,23 +516,23 @@ pub(crate) fn pick_component(c: &PointCoefficients, u: f64) -> PhaseFunction {
     }
 }
 
-/// The σ_s-weighted mixture phase matrix and its P11 at cos Θ.
-pub(crate) fn mixture(c: &PointCoefficients, cos_theta: f64) -> (Mueller, f64) {
+/// The σ_s-weighted mixture phase matrix at cos Θ.
+pub(crate) fn mixture(c: &PointCoefficients, cos_theta: f64) -> PhaseMatrix {
     let sigma_s = c.sigma_s();
     let (wr, wa) = (c.sigma_rayleigh / sigma_s, c.sigma_aerosol_sca / sigma_s);
-    let mut m = Mueller::zero();
-    if wr > 0.0 {
-        m += PhaseFunction::Rayleigh {
+    let rayleigh = || {
+        PhaseFunction::Rayleigh {
             depolarization: c.rayleigh_depolarization,
         }
-        .mueller(cos_theta)
-            * wr;
+        .matrix(cos_theta)
+    };
+    let aerosol = || PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.matrix(cos_theta);
+    match (wr > 0.0, wa > 0.0) {
+        (true, true) => rayleigh().mix(wr, &aerosol(), wa),
+        (true, false) => rayleigh().scaled(wr),
+        (false, true) => aerosol().scaled(wa),
+        (false, false) => PhaseMatrix::default(),
     }
-    if wa > 0.0 {
-        m += PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.mueller(cos_theta) * wa;
-    }
-    let p11 = m.0[0][0];
-    (m, p11)
 }
 
 /// One segment of a flight as the sun-aware sampling sees it.
@@ -568,24 +566,22 @@ struct Path {
 impl Path {
     /// T · R(ψ) · M · (1, 0, 0, 0): the sensor Stokes vector of unpolarised
     /// unit light scattered from k_in into k_out with matrix M.
-    fn rotated_column(&self, m: &Mueller, k_in: DVec3, k_out: DVec3, polarized: bool) -> Stokes {
-        let source = Stokes::new(1.0, 0.0, 0.0, 0.0);
+    fn rotated_column(&self, m: &PhaseMatrix, k_in: DVec3, k_out: DVec3, polarized: bool) -> Stokes {
         if !polarized {
-            return self.throughput * Stokes::new(m.0[0][0], 0.0, 0.0, 0.0);
+            return self.throughput * Stokes::new(m.p11, 0.0, 0.0, 0.0);
         }
         let (rotation, _) = scattering_frame(self.frame_e1, k_in, k_out);
-        let scattered = *m * source;
-        self.throughput * rotation.apply(scattered)
+        rotation.column_of(&self.throughput, m)
     }
 
     /// Applies a scattering from k_in into k_out with (weighted) matrix `w`.
-    fn scatter(&mut self, w: &Mueller, k_in: DVec3, k_out: DVec3, polarized: bool) {
+    fn scatter(&mut self, w: &PhaseMatrix, k_in: DVec3, k_out: DVec3, polarized: bool) {
         if !polarized {
-            self.throughput = self.throughput * Mueller::depolarizer(w.0[0][0]);
+            self.throughput = self.throughput * Mueller::depolarizer(w.p11);
             return;
         }
         let (rotation, e1_in) = scattering_frame(self.frame_e1, k_in, k_out);
-        self.throughput = rotation.right_of(&self.throughput) * *w;
+        self.throughput = rotation.right_of_then(&self.throughput, w);
         self.frame_e1 = e1_in;
     }
 

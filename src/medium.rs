@@ -51,6 +51,12 @@ pub struct Medium {
     sigma_maj: Vec<f64>,
     /// σ_t of each layer (its mean for `smooth`).
     sigma_t_layer: Vec<f64>,
+    /// σ_maj's step at each level k, σ_maj(k − 1) − σ_maj(k), with zero
+    /// below the ground and above the top (`levels_km.len()` entries): the
+    /// coefficients of the closed-form optical depth through shells.
+    steps: Vec<f64>,
+    /// Whether σ_t is constant per layer and equal to the majorant.
+    piecewise_constant: bool,
 }
 
 /// Gauss–Legendre nodes and weights on [0, 1] (8 points, exact for
@@ -88,12 +94,33 @@ impl Medium {
                 bound * majorant_scale
             })
             .collect();
-        Medium {
-            levels_km: atm.levels_km.clone(),
-            sigma_t_layer: layers.iter().map(LayerOptics::sigma_t).collect(),
+        Medium::assemble(
+            atm.levels_km.clone(),
+            layers.iter().map(LayerOptics::sigma_t).collect(),
             layers,
             shapes,
             sigma_maj,
+        )
+    }
+
+    /// The medium with its derived fields (steps, piecewise flag).
+    fn assemble(
+        levels_km: Vec<f64>,
+        sigma_t_layer: Vec<f64>,
+        layers: Vec<LayerOptics>,
+        shapes: Option<Vec<LayerShape>>,
+        sigma_maj: Vec<f64>,
+    ) -> Medium {
+        let steps = density_steps(&sigma_maj);
+        let piecewise_constant = shapes.is_none() && sigma_maj.iter().zip(&sigma_t_layer).all(|(m, t)| m == t);
+        Medium {
+            levels_km,
+            layers,
+            shapes,
+            sigma_maj,
+            sigma_t_layer,
+            steps,
+            piecewise_constant,
         }
     }
 
@@ -101,10 +128,17 @@ impl Medium {
     /// medium's own): for sharing tentative collisions between wavelengths.
     pub fn with_majorants(&self, sigma_maj: Vec<f64>) -> Medium {
         debug_assert!(sigma_maj.iter().zip(&self.sigma_maj).all(|(a, b)| a >= b));
-        Medium {
+        self.with_sigma_maj(sigma_maj)
+    }
+
+    fn with_sigma_maj(&self, sigma_maj: Vec<f64>) -> Medium {
+        Medium::assemble(
+            self.levels_km.clone(),
+            self.sigma_t_layer.clone(),
+            self.layers.clone(),
+            self.shapes.clone(),
             sigma_maj,
-            ..self.clone()
-        }
+        )
     }
 
     /// The layer's mean σ_t (km⁻¹): the control of residual ratio tracking.
@@ -131,10 +165,7 @@ impl Medium {
     /// The same medium with majorants for the residual σ_t − σ̄ (see
     /// [`Medium::residual_bound`]), for residual ratio tracking.
     pub fn with_residual_majorants(&self, bounds: Vec<f64>) -> Medium {
-        Medium {
-            sigma_maj: bounds,
-            ..self.clone()
-        }
+        self.with_sigma_maj(bounds)
     }
 
     /// Layer boundaries (km), ascending from the ground.
@@ -155,8 +186,16 @@ impl Medium {
 
     /// True when σ_t is constant in every layer and equal to the majorant,
     /// so optical depth along a ray is exact and cheap.
+    #[inline]
     pub fn is_piecewise_constant(&self) -> bool {
-        (0..self.layers.len()).all(|i| self.is_exact_majorant(i))
+        self.piecewise_constant
+    }
+
+    /// The majorant's step at each level, σ_maj(k − 1) − σ_maj(k) (zero
+    /// outside the atmosphere): see [`crate::tracking::shell_exit`].
+    #[inline]
+    pub fn steps(&self) -> &[f64] {
+        &self.steps
     }
 
     /// Coefficients in layer `i` at altitude `z_km`.
@@ -213,6 +252,14 @@ impl Medium {
         }
         tau
     }
+}
+
+/// σ(k − 1) − σ(k) at each level k = 0..=n of n layers, σ zero outside.
+pub(crate) fn density_steps(sigma: &[f64]) -> Vec<f64> {
+    let at = |k: usize| sigma.get(k).copied().unwrap_or(0.0);
+    (0..=sigma.len())
+        .map(|k| if k == 0 { -at(0) } else { at(k - 1) - at(k) })
+        .collect()
 }
 
 #[cfg(test)]

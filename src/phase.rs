@@ -23,7 +23,7 @@
 //! azimuth uniformly. Uniform variates are passed in explicitly so that the
 //! transport code owns its random streams.
 
-use crate::stokes::Mueller;
+use crate::stokes::{Mueller, PhaseMatrix};
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -73,23 +73,29 @@ impl PhaseFunction {
 
     /// The 4×4 phase matrix in the scattering-plane frame.
     pub fn mueller(&self, cos_theta: f64) -> Mueller {
+        self.matrix(cos_theta).mueller()
+    }
+
+    /// The phase matrix in the scattering-plane frame, in its block form.
+    pub fn matrix(&self, cos_theta: f64) -> PhaseMatrix {
         match *self {
             PhaseFunction::Rayleigh { depolarization: rho } => {
                 let d = rayleigh_anisotropic_weight(rho);
                 let mu2 = cos_theta * cos_theta;
-                let p11 = self.p11(cos_theta);
-                let p12 = -d * 0.75 * (1.0 - mu2);
-                let p22 = d * 0.75 * (1.0 + mu2);
-                let p33 = d * 1.5 * cos_theta;
-                let p44 = d * (1.0 - 2.0 * rho) / (1.0 - rho) * 1.5 * cos_theta;
-                Mueller([
-                    [p11, p12, 0.0, 0.0],
-                    [p12, p22, 0.0, 0.0],
-                    [0.0, 0.0, p33, 0.0],
-                    [0.0, 0.0, 0.0, p44],
-                ])
+                PhaseMatrix {
+                    p11: self.p11(cos_theta),
+                    p12: -d * 0.75 * (1.0 - mu2),
+                    p22: d * 0.75 * (1.0 + mu2),
+                    p33: d * 1.5 * cos_theta,
+                    p34: 0.0,
+                    p44: d * (1.0 - 2.0 * rho) / (1.0 - rho) * 1.5 * cos_theta,
+                }
             }
-            PhaseFunction::HenyeyGreenstein { .. } => Mueller::depolarizer(self.p11(cos_theta)),
+            // Depolarising: only P11.
+            PhaseFunction::HenyeyGreenstein { .. } => PhaseMatrix {
+                p11: self.p11(cos_theta),
+                ..PhaseMatrix::default()
+            },
         }
     }
 

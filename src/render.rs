@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::integrator::{MAX_ALBEDOS, Radiances, Scene};
+use crate::integrator::{Radiances, Scene};
 use crate::sampler::Sampler;
 use crate::spectral::{SpectralRadiances, SpectralScene};
 use crate::stokes::Stokes;
@@ -107,7 +107,7 @@ impl SampleValues for Radiances {
 impl SampleValues for SpectralRadiances {
     /// Wavelength-major, then albedo.
     fn values(&self) -> impl Iterator<Item = &Stokes> {
-        (0..self.wavelengths).flat_map(move |w| self.values[w * MAX_ALBEDOS..w * MAX_ALBEDOS + self.albedos].iter())
+        self.values.iter()
     }
 }
 

@@ -28,15 +28,18 @@ use std::f64::consts::FRAC_1_PI;
 
 use glam::DVec3;
 
+use std::cell::RefCell;
+use std::ops::ControlFlow;
+
 use crate::integrator::{
     INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, mixture, pick_component, scattering_frame,
 };
-use crate::medium::{Medium, PointCoefficients};
+use crate::medium::{Medium, PointCoefficients, density_steps};
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
-use crate::stokes::{Mueller, Stokes, meridian_frame};
+use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
 use crate::sun::Sun;
-use crate::tracking::{self, Ray, Segment, WalkEnd};
+use crate::tracking::{self, Ray, WalkEnd};
 
 /// Everything a shared-wavelength path needs.
 #[derive(Debug, Clone)]
@@ -50,9 +53,12 @@ pub struct SpectralScene {
     /// σ_t per layer and wavelength, layer-major (`[layer·N + λ]`), so the
     /// per-segment optical depths of all wavelengths are one contiguous loop.
     sigma_t: Vec<f64>,
+    /// σ_t's steps per level and wavelength (`[level·N + λ]`, see
+    /// `Medium::steps`).
+    steps: Vec<f64>,
 }
 
-/// One sample's radiances: `values[λ·MAX_ALBEDOS + albedo]`.
+/// One sample's radiances: `values[λ·albedos + albedo]`.
 #[derive(Debug, Clone)]
 pub struct SpectralRadiances {
     pub values: Vec<Stokes>,
@@ -63,40 +69,86 @@ pub struct SpectralRadiances {
 impl SpectralRadiances {
     /// The radiance of wavelength `w` and albedo `a`.
     pub fn get(&self, w: usize, a: usize) -> Stokes {
-        self.values[w * MAX_ALBEDOS + a]
+        self.values[w * self.albedos + a]
     }
 }
 
+/// A path's state; its per-wavelength vectors are reused from sample to
+/// sample on each thread ([`WORK`]).
+#[derive(Default)]
 struct Path {
     /// Per wavelength: its path integrand over the hero's path density.
     throughput: Vec<Mueller>,
     /// Per wavelength: its path density over the hero's.
     density_ratio: Vec<f64>,
+    /// 1 / mean of `density_ratio` (the balance heuristic's denominator).
+    inv_mean_density: f64,
     hero: usize,
     frame_e1: DVec3,
     order: u32,
     albedo_weights: [f64; MAX_ALBEDOS],
-    radiance: SpectralRadiances,
+    /// `[λ·albedos + albedo]`.
+    radiance: Vec<Stokes>,
+    albedos: usize,
+    /// Scratch per wavelength: optical depths to the exit and to the
+    /// collision, forcing probabilities, coefficients and phase matrices.
+    tau_exit: Vec<f64>,
+    tau_hit: Vec<f64>,
+    forced: Vec<f64>,
+    coeffs: Vec<PointCoefficients>,
+    matrices: Vec<PhaseMatrix>,
+    /// Scratch per level: the weighted half chords of a ray.
+    chords: Vec<f64>,
+}
+
+thread_local! {
+    static WORK: RefCell<Path> = RefCell::new(Path::default());
 }
 
 impl Path {
+    fn reset(&mut self, n: usize, levels: usize, albedos: usize, frame_e1: DVec3, hero: usize) {
+        self.throughput.clear();
+        self.throughput.resize(n, Mueller::identity());
+        self.density_ratio.clear();
+        self.density_ratio.resize(n, 1.0);
+        self.inv_mean_density = 1.0;
+        self.hero = hero;
+        self.frame_e1 = frame_e1;
+        self.order = 0;
+        self.albedo_weights = [1.0; MAX_ALBEDOS];
+        self.radiance.clear();
+        self.radiance.resize(n * albedos, Stokes::zero());
+        self.albedos = albedos;
+        for v in [&mut self.tau_exit, &mut self.tau_hit, &mut self.forced] {
+            v.resize(n, 0.0);
+        }
+        self.chords.resize(levels, 0.0);
+    }
+
+    /// Multiplies wavelength `w`'s density ratio by `k`.
+    fn scale_density(&mut self, w: usize, k: f64) {
+        self.density_ratio[w] *= k;
+    }
+
+    /// Refreshes the balance heuristic's denominator after density changes.
+    fn densities_changed(&mut self) {
+        let mean = self.density_ratio.iter().sum::<f64>() / self.density_ratio.len() as f64;
+        self.inv_mean_density = 1.0 / mean;
+    }
+
     /// Adds wavelength `w`'s contribution `s` (throughput already in it),
     /// with the balance heuristic over the wavelengths' path densities.
     fn add(&mut self, w: usize, s: Stokes) {
-        let mean = self.density_ratio.iter().sum::<f64>() / self.density_ratio.len() as f64;
-        for a in 0..self.radiance.albedos {
-            self.radiance.values[w * MAX_ALBEDOS + a] += s * (self.albedo_weights[a] / mean);
+        let s = s * self.inv_mean_density;
+        let base = w * self.albedos;
+        for a in 0..self.albedos {
+            self.radiance[base + a] += s * self.albedo_weights[a];
         }
-    }
-
-    fn scale(&mut self, w: usize, k: f64) {
-        self.throughput[w] = self.throughput[w] * k;
     }
 
     /// Russian roulette on the largest effective T₀₀ over the wavelengths.
     fn roulette(&mut self, sampler: &mut Sampler) -> bool {
-        let mean = self.density_ratio.iter().sum::<f64>() / self.density_ratio.len() as f64;
-        let w = self.throughput.iter().map(|t| t.0[0][0]).fold(0.0, f64::max) / mean;
+        let w = self.throughput.iter().map(|t| t.0[0][0]).fold(0.0, f64::max) * self.inv_mean_density;
         if self.order < 2 || w >= ROULETTE_THRESHOLD {
             return w > 0.0;
         }
@@ -137,6 +189,13 @@ impl SpectralScene {
         let sigma_t = (0..layers)
             .flat_map(|l| media.iter().map(move |m| m.sigma_maj(l)))
             .collect();
+        let per_medium: Vec<Vec<f64>> = media
+            .iter()
+            .map(|m| density_steps(&(0..layers).map(|l| m.sigma_maj(l)).collect::<Vec<_>>()))
+            .collect();
+        let steps = (0..=layers)
+            .flat_map(|k| per_medium.iter().map(move |s| s[k]))
+            .collect();
         SpectralScene {
             geometry,
             media,
@@ -144,6 +203,7 @@ impl SpectralScene {
             albedos,
             settings,
             sigma_t,
+            steps,
         }
     }
 
@@ -186,65 +246,49 @@ impl SpectralScene {
         phi_fallback: f64,
         sampler: &mut Sampler,
     ) -> SpectralRadiances {
-        let n = self.media.len();
-        let (e1, _) = meridian_frame(view, phi_fallback);
-        let mut path = Path {
-            throughput: vec![Mueller::identity(); n],
-            density_ratio: vec![1.0; n],
-            hero: ((sampler.next_f64() * n as f64) as usize).min(n - 1),
-            frame_e1: e1,
-            order: 0,
-            albedo_weights: [1.0; MAX_ALBEDOS],
-            radiance: SpectralRadiances {
-                values: vec![Stokes::zero(); n * MAX_ALBEDOS],
-                wavelengths: n,
-                albedos: self.albedos.len().min(MAX_ALBEDOS),
-            },
-        };
-        let origin = self.observer_position(altitude_km);
-        let up = self.geometry.up(origin);
-        let levels = self.media[0].levels_km();
-        match tracking::layer_at(levels, altitude_km, view.dot(up)) {
-            Some(layer) => self.trace(
-                &mut path,
-                Ray {
-                    origin,
-                    dir: view,
-                    layer,
-                },
-                sampler,
-            ),
-            None => {
-                if altitude_km <= levels[0] && view.dot(up) < 0.0 && self.ground(&mut path, origin, sampler) {
-                    let dir = cosine_hemisphere(up, sampler.next2());
-                    self.trace(&mut path, Ray { origin, dir, layer: 0 }, sampler);
+        WORK.with_borrow_mut(|path| {
+            let n = self.media.len();
+            let albedos = self.albedos.len().min(MAX_ALBEDOS);
+            let (e1, _) = meridian_frame(view, phi_fallback);
+            let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
+            let levels = self.media[0].levels_km();
+            path.reset(n, levels.len(), albedos, e1, hero);
+            let origin = self.observer_position(altitude_km);
+            let up = self.geometry.up(origin);
+            match tracking::layer_at(levels, altitude_km, view.dot(up)) {
+                Some(layer) => self.trace(
+                    path,
+                    Ray {
+                        origin,
+                        dir: view,
+                        layer,
+                    },
+                    sampler,
+                ),
+                None => {
+                    if altitude_km <= levels[0] && view.dot(up) < 0.0 && self.ground(path, origin, sampler) {
+                        let dir = cosine_hemisphere(up, sampler.next2());
+                        self.trace(path, Ray { origin, dir, layer: 0 }, sampler);
+                    }
                 }
             }
-        }
-        path.radiance
+            SpectralRadiances {
+                values: path.radiance.clone(),
+                wavelengths: n,
+                albedos,
+            }
+        })
     }
 
     fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
         let n = self.media.len();
-        let mut segments: Vec<Segment> = Vec::with_capacity(64);
-        let mut tau: Vec<f64> = vec![0.0; n];
         loop {
-            // The shared walk of this flight.
-            segments.clear();
-            let end = tracking::walk(&self.geometry, self.media[0].levels_km(), &ray, |seg| {
-                segments.push(seg);
-                std::ops::ControlFlow::Continue(())
-            });
-            if segments.iter().any(|s| !s.t1.is_finite()) {
-                return;
-            }
-            tau.iter_mut().for_each(|t| *t = 0.0);
-            for seg in &segments {
-                self.accumulate(&mut tau, seg.layer, seg.t1 - seg.t0);
-            }
-            let ground_end = matches!(end, WalkEnd::Ground { .. });
-            let analog = ground_end && self.reflects();
-            match self.flight(path, &ray, &segments, &tau, end, analog, sampler) {
+            let mut tau_exit = std::mem::take(&mut path.tau_exit);
+            let end = self.exit_depths(&ray, &mut path.chords, &mut tau_exit);
+            path.tau_exit = tau_exit;
+            let Some(end) = end else { return };
+            let analog = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
+            match self.flight(path, &ray, end, analog, sampler) {
                 Outcome::Escaped => return,
                 Outcome::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
@@ -261,32 +305,30 @@ impl SpectralScene {
                 Outcome::Collided { t, layer } => {
                     let x = ray.origin + t * ray.dir;
                     let z = self.geometry.altitude(x);
-                    let coeffs: Vec<PointCoefficients> = self.media.iter().map(|m| m.at(layer, z)).collect();
+                    path.coeffs.clear();
+                    path.coeffs.extend(self.media.iter().map(|m| m.at(layer, z)));
                     let k_out = -ray.dir;
                     path.order += 1;
-                    self.sun_from_scattering(path, x, layer, k_out, &coeffs, sampler);
+                    self.sun_from_scattering(path, x, layer, k_out, sampler);
                     if self.order_done(path.order) {
                         return;
                     }
-                    // Direction from the hero's phase function, weighted by
-                    // the mixture of all wavelengths' densities.
-                    let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-                    let component = pick_component(&coeffs[hero], sampler.next_f64());
+                    // Direction from one wavelength's phase function, picked
+                    // uniformly, weighted by the mixture of all wavelengths'
+                    // densities.
+                    let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
+                    let component = pick_component(&path.coeffs[pick], sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
                     let cos = k_in.dot(k_out);
-                    let matrices: Vec<(Mueller, f64)> = coeffs.iter().map(|c| mixture(c, cos)).collect();
-                    let mean_p11 = matrices.iter().map(|m| m.1).sum::<f64>() / n as f64;
+                    path.matrices.clear();
+                    path.matrices.extend(path.coeffs.iter().map(|c| mixture(c, cos)));
+                    let inv_mean_p11 = n as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
                     let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
-                    for (w, (m, _)) in matrices.iter().enumerate() {
-                        let weight = if self.settings.polarized {
-                            *m * (1.0 / mean_p11)
+                    for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
+                        *t = if self.settings.polarized {
+                            rotation.right_of_then(t, &m.scaled(inv_mean_p11))
                         } else {
-                            Mueller::depolarizer(m.0[0][0] / mean_p11)
-                        };
-                        path.throughput[w] = if self.settings.polarized {
-                            rotation.right_of(&path.throughput[w]) * weight
-                        } else {
-                            path.throughput[w] * weight
+                            *t * Mueller::depolarizer(m.p11 * inv_mean_p11)
                         };
                     }
                     path.frame_e1 = e1_in;
@@ -303,33 +345,65 @@ impl SpectralScene {
         }
     }
 
+    /// Every wavelength's optical depth from the ray's origin to where it
+    /// leaves (top or ground) into `tau`, and how it leaves; `None` for an
+    /// endless (horizontal plane-parallel) ray. `chords` is scratch.
+    fn exit_depths(&self, ray: &Ray, chords: &mut [f64], tau: &mut [f64]) -> Option<WalkEnd> {
+        let n = tau.len();
+        let levels = self.media[0].levels_km();
+        tau.fill(0.0);
+        match self.geometry {
+            Geometry::Spherical { radius_km } => {
+                let exit = tracking::shell_exit(radius_km, levels, ray);
+                let base = &self.sigma_t[ray.layer * n..(ray.layer + 1) * n];
+                for (t, s) in tau.iter_mut().zip(base) {
+                    *t = -exit.b * s;
+                }
+                for (range, weight) in [(exit.twice.clone(), 2.0), (exit.once.clone(), 1.0)] {
+                    let c = &mut chords[range.clone()];
+                    tracking::half_chords_into(radius_km, &levels[range.clone()], exit.h, c);
+                    for (k, &chord) in range.zip(c.iter()) {
+                        let w = weight * chord;
+                        for (t, s) in tau.iter_mut().zip(&self.steps[k * n..(k + 1) * n]) {
+                            *t += w * s;
+                        }
+                    }
+                }
+                tau.iter_mut().for_each(|t| *t = t.max(0.0));
+                Some(exit.end(radius_km, levels, ray))
+            }
+            Geometry::PlaneParallel => {
+                let mut endless = false;
+                let end = tracking::walk(&self.geometry, levels, ray, |seg| {
+                    if seg.t1.is_finite() {
+                        self.accumulate(tau, seg.layer, seg.t1 - seg.t0);
+                    } else {
+                        endless = true;
+                    }
+                    ControlFlow::Continue(())
+                });
+                (!endless).then_some(end)
+            }
+        }
+    }
+
     /// Samples the flight's outcome with the path's hero wavelength; every
     /// wavelength's integrand and density go in over the hero's density.
-    #[allow(clippy::too_many_arguments)]
-    fn flight(
-        &self,
-        path: &mut Path,
-        ray: &Ray,
-        segments: &[Segment],
-        tau_exit: &[f64],
-        end: WalkEnd,
-        analog: bool,
-        sampler: &mut Sampler,
-    ) -> Outcome {
-        let n = self.media.len();
+    /// `path.tau_exit` holds the depths to the flight's `end`.
+    fn flight(&self, path: &mut Path, ray: &Ray, end: WalkEnd, analog: bool, sampler: &mut Sampler) -> Outcome {
         let hero = path.hero;
         let u = sampler.next_f64();
-        // Forcing probabilities 1 − e^(−τ) (forced mode only).
-        let p: Vec<f64> = tau_exit.iter().map(|t| -(-t).exp_m1()).collect();
         let target = if analog {
             let tau = -(1.0 - u).ln();
-            if tau >= tau_exit[hero] {
+            if tau >= path.tau_exit[hero] {
                 // The ground, reached with probability e^(−τ) at every λ.
-                let hero_p = (-tau_exit[hero]).exp();
-                for (w, t) in tau_exit.iter().enumerate() {
-                    path.scale(w, (-t).exp() / hero_p);
-                    path.density_ratio[w] *= (-t).exp() / hero_p;
+                let hero_p = (-path.tau_exit[hero]).exp();
+                for w in 0..self.media.len() {
+                    let k = (-path.tau_exit[w]).exp() / hero_p;
+                    path.throughput[w] = path.throughput[w] * k;
+                    path.scale_density(w, k);
                 }
+                path.densities_changed();
                 let WalkEnd::Ground { t } = end else {
                     unreachable!("analog flights end on the ground")
                 };
@@ -337,103 +411,89 @@ impl SpectralScene {
             }
             tau
         } else {
-            if p[hero] <= 0.0 {
+            // Forcing probabilities 1 − e^(−τ).
+            for (p, t) in path.forced.iter_mut().zip(&path.tau_exit) {
+                *p = -(-t).exp_m1();
+            }
+            if path.forced[hero] <= 0.0 {
                 return Outcome::Escaped;
             }
-            tracking::forced_distance(u, p[hero])
+            tracking::forced_distance(u, path.forced[hero])
         };
-        // Locate the collision along the hero's optical depth.
+        // Locate the collision along the hero's optical depth, with every
+        // wavelength's depth to it accumulated on the way.
         let hero_medium = &self.media[hero];
         let mut acc = 0.0;
-        let mut hit = (segments[segments.len() - 1].t1, segments[segments.len() - 1].layer);
-        for s in segments {
-            let d = hero_medium.sigma_maj(s.layer) * (s.t1 - s.t0);
-            if acc + d >= target {
-                let t = (s.t0 + (target - acc) / hero_medium.sigma_maj(s.layer)).min(s.t1);
-                hit = (t, s.layer);
-                break;
+        let mut hit = None;
+        let mut last = None;
+        path.tau_hit.fill(0.0);
+        tracking::walk(&self.geometry, hero_medium.levels_km(), ray, |s| {
+            let sigma = hero_medium.sigma_maj(s.layer);
+            let d = sigma * (s.t1 - s.t0);
+            if sigma > 0.0 && acc + d >= target {
+                let t = (s.t0 + (target - acc) / sigma).min(s.t1);
+                self.accumulate(&mut path.tau_hit, s.layer, t - s.t0);
+                hit = Some((t, s.layer));
+                return ControlFlow::Break(());
             }
+            self.accumulate(&mut path.tau_hit, s.layer, s.t1 - s.t0);
             acc += d;
-        }
-        let (t, layer) = hit;
-        // Optical depth to t for every wavelength, and the mixture density.
-        let mut tau_t = vec![0.0; n];
-        for s in segments {
-            let len = (t.min(s.t1) - s.t0).max(0.0);
-            if len <= 0.0 {
-                break;
-            }
-            self.accumulate(&mut tau_t, s.layer, len);
-        }
-        let density = |w: usize| {
-            let sigma_t = self.media[w].sigma_maj(layer);
-            let q = sigma_t * (-tau_t[w]).exp();
+            last = Some((s.t1, s.layer));
+            ControlFlow::Continue(())
+        });
+        let Some((t, layer)) = hit.or(last) else {
+            return Outcome::Escaped;
+        };
+        // The mixture density of the collision, per wavelength over the hero's.
+        let density = |w: usize, path: &Path| {
+            let q = self.media[w].sigma_maj(layer) * (-path.tau_hit[w]).exp();
             if analog {
                 q
-            } else if p[w] > 0.0 {
-                q / p[w]
+            } else if path.forced[w] > 0.0 {
+                q / path.forced[w]
             } else {
                 0.0
             }
         };
-        let hero_density = density(hero);
+        let inv_hero = 1.0 / density(hero, path);
         let z = self.geometry.altitude(ray.origin + t * ray.dir);
         for (w, m) in self.media.iter().enumerate() {
             let sigma_s = m.at(layer, z).sigma_s();
-            path.scale(w, sigma_s * (-tau_t[w]).exp() / hero_density);
-            path.density_ratio[w] *= density(w) / hero_density;
+            let k = density(w, path) * inv_hero;
+            path.throughput[w] = path.throughput[w] * (sigma_s * (-path.tau_hit[w]).exp() * inv_hero);
+            path.scale_density(w, k);
         }
+        path.densities_changed();
         Outcome::Collided { t, layer }
     }
 
-    /// Optical depth toward the sun from `x` for every wavelength (one walk);
-    /// `None` when the shadow ray hits the planet.
-    fn sun_depths(&self, x: DVec3, dir: DVec3, layer: usize) -> Option<Vec<f64>> {
-        let mut tau = vec![0.0; self.media.len()];
-        let end = tracking::walk(
-            &self.geometry,
-            self.media[0].levels_km(),
-            &Ray { origin: x, dir, layer },
-            |s| {
-                for (w, m) in self.media.iter().enumerate() {
-                    tau[w] += m.sigma_maj(s.layer) * (s.t1 - s.t0);
-                }
-                std::ops::ControlFlow::Continue(())
-            },
-        );
-        match end {
-            WalkEnd::Top { .. } => Some(tau),
-            WalkEnd::Endless => tau.iter().all(|t| t.is_finite()).then_some(tau),
-            _ => None,
-        }
+    /// Every wavelength's optical depth toward the sun from `x` into
+    /// `path.tau_exit`; false when the shadow ray hits the planet.
+    fn sun_depths(&self, path: &mut Path, x: DVec3, dir: DVec3, layer: usize) -> bool {
+        let mut tau = std::mem::take(&mut path.tau_exit);
+        let end = self.exit_depths(&Ray { origin: x, dir, layer }, &mut path.chords, &mut tau);
+        path.tau_exit = tau;
+        matches!(end, Some(WalkEnd::Top { .. }))
     }
 
-    fn sun_from_scattering(
-        &self,
-        path: &mut Path,
-        x: DVec3,
-        layer: usize,
-        k_out: DVec3,
-        coeffs: &[PointCoefficients],
-        sampler: &mut Sampler,
-    ) {
+    fn sun_from_scattering(&self, path: &mut Path, x: DVec3, layer: usize, k_out: DVec3, sampler: &mut Sampler) {
         let s = self.sun.sample_direction(sampler.next2());
-        let Some(tau) = self.sun_depths(x, s, layer) else {
+        if !self.sun_depths(path, x, s, layer) {
             return;
-        };
+        }
         let k_in = -s;
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
-        for (w, c) in coeffs.iter().enumerate() {
-            let tr = (-tau[w]).exp();
+        for w in 0..self.media.len() {
+            let tr = (-path.tau_exit[w]).exp();
             if tr <= 0.0 {
                 continue;
             }
-            let (m, _) = mixture(c, cos);
+            let m = mixture(&path.coeffs[w], cos);
             let column = if self.settings.polarized {
-                path.throughput[w] * rotation.apply(m * Stokes::new(1.0, 0.0, 0.0, 0.0))
+                rotation.column_of(&path.throughput[w], &m)
             } else {
-                path.throughput[w] * Stokes::new(m.0[0][0], 0.0, 0.0, 0.0)
+                path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
             };
             path.add(w, column * (tr * INV_4PI));
         }
@@ -456,9 +516,9 @@ impl SpectralScene {
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
         let mu_s = s.dot(up);
-        if let Some(tau) = (mu_s > 0.0).then(|| self.sun_depths(x, s, 0)).flatten() {
-            for (w, t) in tau.iter().enumerate() {
-                let f = FRAC_1_PI * mu_s * (-t).exp();
+        if mu_s > 0.0 && self.sun_depths(path, x, s, 0) {
+            for w in 0..self.media.len() {
+                let f = FRAC_1_PI * mu_s * (-path.tau_exit[w]).exp();
                 let m = &path.throughput[w].0;
                 let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
                 path.add(w, column * f);
