@@ -35,7 +35,7 @@ use std::f64::consts::{FRAC_1_PI, PI};
 use glam::DVec3;
 
 use crate::medium::{Medium, PointCoefficients};
-use crate::phase::{PhaseFunction, orthonormal_basis};
+use crate::phase::{PhaseFunction, PhaseMixture, orthonormal_basis};
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
 use crate::stokes::{Mueller, PhaseMatrix, Stokes, StokesRotation, meridian_frame};
@@ -259,7 +259,7 @@ impl Scene {
                     // Sample the direction the light came from.
                     let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
-                    let m = mixture(&coeffs, k_in.dot(k_out));
+                    let m = phase_mixture(&coeffs).matrix(k_in.dot(k_out));
                     path.scatter(&m.scaled(1.0 / m.p11), k_in, k_out, self.settings.polarized);
                     if !path.roulette(sampler) {
                         return;
@@ -438,7 +438,7 @@ impl Scene {
             return;
         }
         let k_in = -s;
-        let m = mixture(coeffs, k_in.dot(k_out));
+        let m = phase_mixture(coeffs).matrix(k_in.dot(k_out));
         // Phase matrix normalised per steradian: P/(4π).
         let column = path.rotated_column(&m, k_in, k_out, self.settings.polarized);
         path.add(column * (tr * INV_4PI));
@@ -516,23 +516,18 @@ pub(crate) fn pick_component(c: &PointCoefficients, u: f64) -> PhaseFunction {
     }
 }
 
-/// The σ_s-weighted mixture phase matrix at cos Θ.
-pub(crate) fn mixture(c: &PointCoefficients, cos_theta: f64) -> PhaseMatrix {
+/// The σ_s-weighted mixture of a point's phase functions.
+pub(crate) fn phase_mixture(c: &PointCoefficients) -> PhaseMixture {
     let sigma_s = c.sigma_s();
-    let (wr, wa) = (c.sigma_rayleigh / sigma_s, c.sigma_aerosol_sca / sigma_s);
-    let rayleigh = || {
-        PhaseFunction::Rayleigh {
-            depolarization: c.rayleigh_depolarization,
-        }
-        .matrix(cos_theta)
-    };
-    let aerosol = || PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.matrix(cos_theta);
-    match (wr > 0.0, wa > 0.0) {
-        (true, true) => rayleigh().mix(wr, &aerosol(), wa),
-        (true, false) => rayleigh().scaled(wr),
-        (false, true) => aerosol().scaled(wa),
-        (false, false) => PhaseMatrix::default(),
+    if sigma_s <= 0.0 {
+        return PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
     }
+    PhaseMixture::new(
+        c.sigma_rayleigh / sigma_s,
+        c.rayleigh_depolarization,
+        c.sigma_aerosol_sca / sigma_s,
+        c.aerosol_g,
+    )
 }
 
 /// One segment of a flight as the sun-aware sampling sees it.

@@ -195,6 +195,58 @@ pub fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
     (b1, b2)
 }
 
+/// The σ_s-weighted mixture of Rayleigh (weight w_r, depolarisation ρ) and
+/// Henyey–Greenstein (weight w_a, asymmetry g) phase matrices, with every
+/// constant that does not depend on the angle worked out once: for a
+/// point's (or a layer's) coefficients, evaluated at many angles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhaseMixture {
+    /// w_r·d·3/4, d the Rayleigh anisotropic weight (1 − ρ)/(1 + ρ/2).
+    rayleigh_polarized: f64,
+    /// w_r·(1 − d): the isotropic part of Rayleigh's P11.
+    rayleigh_isotropic: f64,
+    /// w_r·d·(1 − 2ρ)/(1 − ρ)·3/2: the factor of cos Θ in P44.
+    rayleigh_circular: f64,
+    aerosol: f64,
+    g: f64,
+}
+
+impl PhaseMixture {
+    /// The mixture with weights `w_rayleigh` and `w_aerosol` (summing to 1).
+    pub fn new(w_rayleigh: f64, depolarization: f64, w_aerosol: f64, g: f64) -> PhaseMixture {
+        let rho = depolarization;
+        let d = rayleigh_anisotropic_weight(rho);
+        PhaseMixture {
+            rayleigh_polarized: w_rayleigh * d * 0.75,
+            rayleigh_isotropic: w_rayleigh * (1.0 - d),
+            rayleigh_circular: w_rayleigh * d * (1.0 - 2.0 * rho) / (1.0 - rho) * 1.5,
+            aerosol: w_aerosol,
+            g,
+        }
+    }
+
+    /// The mixture's phase matrix at cos Θ (the weighted sum of
+    /// [`PhaseFunction::matrix`] of the two components).
+    #[inline]
+    pub fn matrix(&self, cos_theta: f64) -> PhaseMatrix {
+        let mu2 = cos_theta * cos_theta;
+        let p22 = self.rayleigh_polarized * (1.0 + mu2);
+        let hg = if self.aerosol > 0.0 {
+            self.aerosol * PhaseFunction::HenyeyGreenstein { g: self.g }.p11(cos_theta)
+        } else {
+            0.0
+        };
+        PhaseMatrix {
+            p11: p22 + self.rayleigh_isotropic + hg,
+            p12: -self.rayleigh_polarized * (1.0 - mu2),
+            p22,
+            p33: 2.0 * self.rayleigh_polarized * cos_theta,
+            p34: 0.0,
+            p44: self.rayleigh_circular * cos_theta,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -242,6 +294,31 @@ mod tests {
                 let a = (1.0 + g * g - 2.0 * g * mu).sqrt();
                 let b = 1.0 + g;
                 (1.0 - g * g) * (1.0 + mu) / (a * b * (a + b))
+            }
+        }
+    }
+
+    #[test]
+    fn the_precomputed_mixture_is_the_weighted_sum_of_its_components() {
+        for (wr, rho, g) in [
+            (1.0, 0.0, 0.0),
+            (1.0, 0.0279, 0.7),
+            (0.3, 0.1, 0.75),
+            (0.0, 0.03, -0.4),
+            (0.55, 0.0, 0.9),
+        ] {
+            let mix = PhaseMixture::new(wr, rho, 1.0 - wr, g);
+            for k in 0..=40 {
+                let mu = -1.0 + k as f64 / 20.0;
+                let r = PhaseFunction::Rayleigh { depolarization: rho }.mueller(mu);
+                let h = PhaseFunction::HenyeyGreenstein { g }.mueller(mu);
+                let m = mix.matrix(mu).mueller();
+                for i in 0..4 {
+                    for j in 0..4 {
+                        let want = wr * r.0[i][j] + (1.0 - wr) * h.0[i][j];
+                        assert!((m.0[i][j] - want).abs() < 1e-12 * want.abs().max(1.0), "{i}{j} μ {mu}");
+                    }
+                }
             }
         }
     }

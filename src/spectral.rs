@@ -32,9 +32,11 @@ use std::cell::RefCell;
 use std::ops::ControlFlow;
 
 use crate::integrator::{
-    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, mixture, pick_component, scattering_frame,
+    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component,
+    scattering_frame,
 };
 use crate::medium::{Medium, PointCoefficients, density_steps};
+use crate::phase::PhaseMixture;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
 use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
@@ -53,9 +55,12 @@ pub struct SpectralScene {
     /// σ_t per layer and wavelength, layer-major (`[layer·N + λ]`), so the
     /// per-segment optical depths of all wavelengths are one contiguous loop.
     sigma_t: Vec<f64>,
-    /// σ_t's steps per level and wavelength (`[level·N + λ]`, see
-    /// `Medium::steps`).
+    /// σ_t's steps per wavelength and level (`[λ·(layers + 1) + level]`,
+    /// see `Medium::steps`).
     steps: Vec<f64>,
+    /// σ_s and the phase mixture per layer and wavelength (`[layer·N + λ]`).
+    sigma_s: Vec<f64>,
+    mixtures: Vec<PhaseMixture>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -91,11 +96,10 @@ struct Path {
     radiance: Vec<Stokes>,
     albedos: usize,
     /// Scratch per wavelength: optical depths to the exit and to the
-    /// collision, forcing probabilities, coefficients and phase matrices.
+    /// collision, forcing probabilities, phase matrices.
     tau_exit: Vec<f64>,
     tau_hit: Vec<f64>,
     forced: Vec<f64>,
-    coeffs: Vec<PointCoefficients>,
     matrices: Vec<PhaseMatrix>,
     /// Scratch per level: the weighted half chords of a ray.
     chords: Vec<f64>,
@@ -189,12 +193,16 @@ impl SpectralScene {
         let sigma_t = (0..layers)
             .flat_map(|l| media.iter().map(move |m| m.sigma_maj(l)))
             .collect();
-        let per_medium: Vec<Vec<f64>> = media
+        let steps = media
             .iter()
-            .map(|m| density_steps(&(0..layers).map(|l| m.sigma_maj(l)).collect::<Vec<_>>()))
+            .flat_map(|m| density_steps(&(0..layers).map(|l| m.sigma_maj(l)).collect::<Vec<_>>()))
             .collect();
-        let steps = (0..=layers)
-            .flat_map(|k| per_medium.iter().map(move |s| s[k]))
+        // Constant per layer (the media are piecewise constant).
+        let coeffs: Vec<PointCoefficients> = (0..layers)
+            .flat_map(|l| {
+                let mid = 0.5 * (media[0].levels_km()[l] + media[0].levels_km()[l + 1]);
+                media.iter().map(move |m| m.at(l, mid))
+            })
             .collect();
         SpectralScene {
             geometry,
@@ -204,6 +212,8 @@ impl SpectralScene {
             settings,
             sigma_t,
             steps,
+            sigma_s: coeffs.iter().map(PointCoefficients::sigma_s).collect(),
+            mixtures: coeffs.iter().map(phase_mixture).collect(),
         }
     }
 
@@ -304,9 +314,7 @@ impl SpectralScene {
                 }
                 Outcome::Collided { t, layer } => {
                     let x = ray.origin + t * ray.dir;
-                    let z = self.geometry.altitude(x);
-                    path.coeffs.clear();
-                    path.coeffs.extend(self.media.iter().map(|m| m.at(layer, z)));
+                    let mixtures = &self.mixtures[layer * n..(layer + 1) * n];
                     let k_out = -ray.dir;
                     path.order += 1;
                     self.sun_from_scattering(path, x, layer, k_out, sampler);
@@ -317,11 +325,12 @@ impl SpectralScene {
                     // uniformly, weighted by the mixture of all wavelengths'
                     // densities.
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-                    let component = pick_component(&path.coeffs[pick], sampler.next_f64());
+                    let coeffs = self.media[pick].at(layer, self.geometry.altitude(x));
+                    let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
                     let cos = k_in.dot(k_out);
                     path.matrices.clear();
-                    path.matrices.extend(path.coeffs.iter().map(|c| mixture(c, cos)));
+                    path.matrices.extend(mixtures.iter().map(|m| m.matrix(cos)));
                     let inv_mean_p11 = n as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
                     let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
                     for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
@@ -355,21 +364,22 @@ impl SpectralScene {
         match self.geometry {
             Geometry::Spherical { radius_km } => {
                 let exit = tracking::shell_exit(radius_km, levels, ray);
+                // The levels crossed, in one run: twice (a dip), then once.
+                let start = if exit.twice.is_empty() {
+                    exit.once.start
+                } else {
+                    exit.twice.start
+                };
+                let range = start..exit.once.end;
+                let c = &mut chords[range.clone()];
+                tracking::half_chords_into(radius_km, &levels[range.clone()], exit.h, c);
+                c[..exit.twice.len()].iter_mut().for_each(|x| *x *= 2.0);
                 let base = &self.sigma_t[ray.layer * n..(ray.layer + 1) * n];
-                for (t, s) in tau.iter_mut().zip(base) {
-                    *t = -exit.b * s;
+                let stride = levels.len();
+                for (w, (t, s)) in tau.iter_mut().zip(base).enumerate() {
+                    let steps = &self.steps[w * stride + range.start..w * stride + range.end];
+                    *t = (tracking::dot(c, steps) - exit.b * s).max(0.0);
                 }
-                for (range, weight) in [(exit.twice.clone(), 2.0), (exit.once.clone(), 1.0)] {
-                    let c = &mut chords[range.clone()];
-                    tracking::half_chords_into(radius_km, &levels[range.clone()], exit.h, c);
-                    for (k, &chord) in range.zip(c.iter()) {
-                        let w = weight * chord;
-                        for (t, s) in tau.iter_mut().zip(&self.steps[k * n..(k + 1) * n]) {
-                            *t += w * s;
-                        }
-                    }
-                }
-                tau.iter_mut().for_each(|t| *t = t.max(0.0));
                 Some(exit.end(radius_km, levels, ray))
             }
             Geometry::PlaneParallel => {
@@ -444,9 +454,13 @@ impl SpectralScene {
         let Some((t, layer)) = hit.or(last) else {
             return Outcome::Escaped;
         };
-        // The mixture density of the collision, per wavelength over the hero's.
-        let density = |w: usize, path: &Path| {
-            let q = self.media[w].sigma_maj(layer) * (-path.tau_hit[w]).exp();
+        // The collision's density per wavelength (σ_t·e^(−τ), over the
+        // forcing probability for a forced flight), over the hero's.
+        let n = self.media.len();
+        let sigma_t = &self.sigma_t[layer * n..(layer + 1) * n];
+        let sigma_s = &self.sigma_s[layer * n..(layer + 1) * n];
+        let density = |w: usize, transmittance: f64, path: &Path| {
+            let q = sigma_t[w] * transmittance;
             if analog {
                 q
             } else if path.forced[w] > 0.0 {
@@ -455,12 +469,11 @@ impl SpectralScene {
                 0.0
             }
         };
-        let inv_hero = 1.0 / density(hero, path);
-        let z = self.geometry.altitude(ray.origin + t * ray.dir);
-        for (w, m) in self.media.iter().enumerate() {
-            let sigma_s = m.at(layer, z).sigma_s();
-            let k = density(w, path) * inv_hero;
-            path.throughput[w] = path.throughput[w] * (sigma_s * (-path.tau_hit[w]).exp() * inv_hero);
+        let inv_hero = 1.0 / density(hero, (-path.tau_hit[hero]).exp(), path);
+        for (w, sigma_s) in sigma_s.iter().enumerate() {
+            let transmittance = (-path.tau_hit[w]).exp();
+            let k = density(w, transmittance, path) * inv_hero;
+            path.throughput[w] = path.throughput[w] * (sigma_s * transmittance * inv_hero);
             path.scale_density(w, k);
         }
         path.densities_changed();
@@ -477,6 +490,8 @@ impl SpectralScene {
     }
 
     fn sun_from_scattering(&self, path: &mut Path, x: DVec3, layer: usize, k_out: DVec3, sampler: &mut Sampler) {
+        let n = self.media.len();
+        let mixtures = &self.mixtures[layer * n..(layer + 1) * n];
         let s = self.sun.sample_direction(sampler.next2());
         if !self.sun_depths(path, x, s, layer) {
             return;
@@ -484,12 +499,12 @@ impl SpectralScene {
         let k_in = -s;
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
-        for w in 0..self.media.len() {
+        for (w, mixture) in mixtures.iter().enumerate() {
             let tr = (-path.tau_exit[w]).exp();
             if tr <= 0.0 {
                 continue;
             }
-            let m = mixture(&path.coeffs[w], cos);
+            let m = mixture.matrix(cos);
             let column = if self.settings.polarized {
                 rotation.column_of(&path.throughput[w], &m)
             } else {
@@ -507,8 +522,11 @@ impl SpectralScene {
         }
         path.order += 1;
         let a_max = self.albedos.iter().copied().fold(0.0, f64::max);
+        // Lambertian and depolarising: only the first column survives.
         for t in path.throughput.iter_mut() {
-            *t = *t * a_max * Mueller::depolarizer(1.0);
+            for row in t.0.iter_mut() {
+                *row = [row[0] * a_max, 0.0, 0.0, 0.0];
+            }
         }
         for (w, a) in path.albedo_weights.iter_mut().zip(&self.albedos) {
             *w *= a / a_max;

@@ -225,11 +225,8 @@ impl Mul<Stokes> for Mueller {
 impl Mul<f64> for Mueller {
     type Output = Mueller;
 
-    fn mul(mut self, a: f64) -> Mueller {
-        for x in self.0.iter_mut().flatten() {
-            *x *= a;
-        }
-        self
+    fn mul(self, a: f64) -> Mueller {
+        Mueller(self.0.map(|row| row.map(|x| x * a)))
     }
 }
 

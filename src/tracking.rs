@@ -530,6 +530,41 @@ fn weighted_half_chords_portable(radius_km: f64, levels_km: &[f64], weights: &[f
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
+/// Σ a_i·b_i in four independent partial sums (AVX2 where the CPU has it;
+/// the same order of operations, hence the same result, either way): the
+/// optical depths of many wavelengths from one ray's half chords.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { dot_avx2(a, b) };
+    }
+    dot_portable(a, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn dot_avx2(a: &[f64], b: &[f64]) -> f64 {
+    dot_portable(a, b)
+}
+
+#[inline(always)]
+fn dot_portable(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    for (x, y) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        for j in 0..4 {
+            acc[j] += x[j] * y[j];
+        }
+    }
+    let tail = n - n % 4;
+    for j in tail..n {
+        acc[j - tail] += a[j] * b[j];
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
 /// The half chords √((r_k − h)(r_k + h)) (0 for a negative radicand) of
 /// `levels_km` into `out`, element by element (AVX2 where the CPU has it).
 pub fn half_chords_into(radius_km: f64, levels_km: &[f64], h: f64, out: &mut [f64]) {
