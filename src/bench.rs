@@ -3,6 +3,13 @@
 //! ozone, no aerosol), spherical R = 6378 km, top 100 km, observer at 1 m,
 //! sun zenith 30°, Lambertian albedo 0.3, polarised, 12 directions (view
 //! zenith 0, 30, 60, 78.46° × azimuth 0, 90, 180), 550 nm.
+//!
+//! `--ratios` adds, each measured in the same run on the same pool, the
+//! throughput issue's ratios: four albedos against one, eleven wavelengths
+//! (320–760 nm) along shared paths against 550 nm alone at the same path
+//! count, the shared paths' relative standard errors at 320 and 760 nm
+//! against dedicated single-wavelength runs scaled to equal time, and the
+//! throughput of the pool against one thread.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -10,7 +17,7 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::job::Job;
-use crate::render::render_directions;
+use crate::render::{Tally, render_directions, render_directions_all, render_directions_spectral};
 
 /// The reference case as a job file (also `examples/throughput_reference.toml`).
 pub const REFERENCE_JOB: &str = include_str!(concat!(
@@ -67,4 +74,93 @@ pub fn run(samples: u64, out: &mut dyn Write) -> Result<f64> {
     writeln!(out, "paths: {paths} in {secs:.3} s").map_err(io)?;
     writeln!(out, "paths_per_second_per_core: {per_core:.0}").map_err(io)?;
     Ok(per_core)
+}
+
+/// The reference job with its spectrum and albedos replaced.
+fn variant(wavelengths: &str, albedos: &str) -> Result<Job> {
+    let text = REFERENCE_JOB
+        .replace("wavelengths_nm = [550.0]", &format!("wavelengths_nm = [{wavelengths}]"))
+        .replace("albedo = 0.3", &format!("albedo = {albedos}"));
+    Job::parse(&text, "throughput_reference.toml", Path::new("."))
+}
+
+/// Mean over directions of the relative standard error of I.
+fn mean_rel_se(tallies: &[Tally]) -> f64 {
+    tallies.iter().map(|t| t.standard_error()[0] / t.mean()[0]).sum::<f64>() / tallies.len() as f64
+}
+
+/// Times `f` (seconds) and returns its value.
+fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
+    let start = Instant::now();
+    let value = f();
+    (start.elapsed().as_secs_f64(), value)
+}
+
+/// The throughput issue's ratios on the reference case, `samples` paths per
+/// direction (each configuration rendered once, on the current pool; the
+/// one-thread figure on `serial`, a pool of one thread).
+pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> Result<()> {
+    let io = |e: io::Error| crate::error::Error::Io {
+        path: "stdout".into(),
+        source: e,
+    };
+    let seed = 1;
+    let threads = rayon::current_num_threads();
+    let single = variant("550.0", "0.3")?;
+    let dirs = single.render.directions();
+    let alt = single.observer_altitude_km;
+    let scene = single.scene(0);
+    render_directions(&scene, alt, dirs, 256, 7, 7);
+    let (t_one, _) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
+    let albedos = variant("550.0", "[0.0, 0.3, 0.6, 1.0]")?;
+    let scene4 = albedos.scene(0);
+    let (t_four, _) = timed(|| render_directions_all(&scene4, alt, dirs, samples, seed, 0));
+    let names: Vec<String> = (0..11).map(|k| format!("{:.1}", 320.0 + 44.0 * k as f64)).collect();
+    let spectral = variant(&names.join(", "), "0.3")?;
+    let shared = spectral
+        .spectral_scene(&spectral.tasks[0])
+        .expect("the reference atmosphere is piecewise constant");
+    let (t_shared, shared_tallies) = timed(|| render_directions_spectral(&shared, alt, dirs, samples, seed, 0));
+    let paths = samples * dirs.len() as u64;
+    writeln!(
+        out,
+        "# ratios on the reference case, {paths} paths each, {threads} threads"
+    )
+    .map_err(io)?;
+    writeln!(out, "one albedo (0.3): {t_one:.3} s").map_err(io)?;
+    writeln!(
+        out,
+        "four albedos (0, 0.3, 0.6, 1) from the same paths: {t_four:.3} s, cost ratio {:.3}",
+        t_four / t_one
+    )
+    .map_err(io)?;
+    writeln!(
+        out,
+        "eleven wavelengths (320 to 760 nm by 44) along shared paths: {t_shared:.3} s, cost ratio {:.3} to 550 nm alone",
+        t_shared / t_one
+    )
+    .map_err(io)?;
+    for (index, nm) in [(0usize, "320.0"), (10, "760.0")] {
+        let job = variant(nm, "0.3")?;
+        let scene = job.scene(0);
+        let (t, tallies) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
+        let dedicated = mean_rel_se(&tallies);
+        let shared_se = mean_rel_se(&shared_tallies[index][0]);
+        // A dedicated run of the shared run's time: its error scales as 1/√time.
+        let equal_time = dedicated * (t / t_shared).sqrt();
+        writeln!(
+            out,
+            "{nm} nm: shared relative standard error {shared_se:.3e}; dedicated run {t:.3} s, {dedicated:.3e}, at the shared run's time {equal_time:.3e}; ratio {:.3}",
+            shared_se / equal_time
+        )
+        .map_err(io)?;
+    }
+    let (t_serial, _) = serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)));
+    writeln!(
+        out,
+        "one thread: {t_serial:.3} s; {threads} threads vs 1: throughput ratio {:.3}",
+        t_serial / t_one
+    )
+    .map_err(io)?;
+    Ok(())
 }

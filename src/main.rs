@@ -59,6 +59,11 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Also measure the throughput ratios (four albedos, eleven shared
+        /// wavelengths and their errors against dedicated runs, threads vs
+        /// one), printed before the last line.
+        #[arg(long)]
+        ratios: bool,
     },
     /// List a job's tasks with their cost: paths and core-hours estimated
     /// from a short calibration render of the first task.
@@ -234,10 +239,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             }
         }
-        Command::Bench { quick, threads } => {
+        Command::Bench { quick, threads, ratios } => {
             let pool = thread_pool(threads)?;
             let samples = if quick { 20_000 } else { 400_000 };
             let mut report = Vec::new();
+            if ratios {
+                let serial = thread_pool(Some(1))?;
+                pool.install(|| atmosim::bench::ratios(samples / 4, &serial, &mut report))?;
+            }
             pool.install(|| atmosim::bench::run(samples, &mut report))?;
             let mut out = std::io::stdout().lock();
             out.write_all(&report).context("writing to stdout")?;

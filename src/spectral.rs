@@ -33,7 +33,7 @@ use std::ops::ControlFlow;
 
 use crate::integrator::{
     INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component,
-    scattering_frame,
+    reference_albedo, scattering_frame,
 };
 use crate::medium::{Medium, PointCoefficients, density_steps};
 use crate::phase::PhaseMixture;
@@ -521,15 +521,15 @@ impl SpectralScene {
             return false;
         }
         path.order += 1;
-        let a_max = self.albedos.iter().copied().fold(0.0, f64::max);
+        let a_ref = reference_albedo(&self.albedos);
         // Lambertian and depolarising: only the first column survives.
         for t in path.throughput.iter_mut() {
             for row in t.0.iter_mut() {
-                *row = [row[0] * a_max, 0.0, 0.0, 0.0];
+                *row = [row[0] * a_ref, 0.0, 0.0, 0.0];
             }
         }
         for (w, a) in path.albedo_weights.iter_mut().zip(&self.albedos) {
-            *w *= a / a_max;
+            *w *= a / a_ref;
         }
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
