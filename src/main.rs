@@ -245,7 +245,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut report = Vec::new();
             if ratios {
                 let serial = thread_pool(Some(1))?;
-                pool.install(|| atmosim::bench::ratios(samples / 4, &serial, &mut report))?;
+                pool.install(|| atmosim::bench::ratios(samples, &serial, &mut report))?;
             }
             pool.install(|| atmosim::bench::run(samples, &mut report))?;
             let mut out = std::io::stdout().lock();
