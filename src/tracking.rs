@@ -910,7 +910,10 @@ mod tests {
                 weighted_half_chords(R, &levels, &weights, h).to_bits(),
                 weighted_half_chords_portable(R, &levels, &weights, h).to_bits()
             );
-            assert_eq!(dot(&levels, &weights).to_bits(), dot_portable(&levels, &weights).to_bits());
+            assert_eq!(
+                dot(&levels, &weights).to_bits(),
+                dot_portable(&levels, &weights).to_bits()
+            );
             let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
             half_chords_into(R, &levels, h, &mut a);
             half_chords_into_portable(R, &levels, h, &mut b);
