@@ -47,10 +47,6 @@ pub fn run(samples: u64, out: &mut dyn Write) -> Result<f64> {
     let secs = start.elapsed().as_secs_f64();
     let paths = samples * directions.len() as u64;
     let per_core = paths as f64 / secs / threads as f64;
-    let io = |e: io::Error| crate::error::Error::Io {
-        path: "stdout".into(),
-        source: e,
-    };
     writeln!(
         out,
         "# reference case: US-standard Rayleigh, 550 nm, spherical, sun zenith 30°, albedo 0.3, polarised"
@@ -100,10 +96,6 @@ fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
 /// direction (each configuration rendered once, on the current pool; the
 /// one-thread figure on `serial`, a pool of one thread).
 pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> Result<()> {
-    let io = |e: io::Error| crate::error::Error::Io {
-        path: "stdout".into(),
-        source: e,
-    };
     let seed = 1;
     let threads = rayon::current_num_threads();
     let single = variant("550.0", "0.3")?;
@@ -163,4 +155,12 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     )
     .map_err(io)?;
     Ok(())
+}
+
+/// A failed write of the report.
+fn io(e: io::Error) -> crate::error::Error {
+    crate::error::Error::Io {
+        path: "stdout".into(),
+        source: e,
+    }
 }

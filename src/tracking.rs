@@ -337,55 +337,67 @@ fn majorant_depth(medium: &Medium, seg: &Segment) -> f64 {
 /// segments until it is reached (the last segment's end if rounding leaves
 /// the target beyond the ray's end).
 pub fn locate_on_ray(medium: &Medium, geometry: &Geometry, ray: &Ray, tau_target: f64) -> Collision {
-    let mut acc = 0.0;
-    let mut last = None;
+    let mut search = DepthSearch::new(tau_target);
     let mut hit = None;
     walk(geometry, medium.levels_km(), ray, |seg| {
+        hit = search.step(medium, seg, majorant_depth(medium, &seg));
+        if hit.is_some() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    hit.unwrap_or_else(|| search.beyond(medium))
+}
+
+/// The point at optical depth `tau_target` along the walked `segments`.
+pub fn locate(medium: &Medium, segments: &[(Segment, f64)], tau_target: f64) -> Collision {
+    let mut search = DepthSearch::new(tau_target);
+    segments
+        .iter()
+        .find_map(|&(seg, tau)| search.step(medium, seg, tau))
+        .unwrap_or_else(|| search.beyond(medium))
+}
+
+/// The search for the point at a target optical depth, segment by segment.
+struct DepthSearch {
+    target: f64,
+    acc: f64,
+    last: Option<Segment>,
+}
+
+impl DepthSearch {
+    fn new(target: f64) -> DepthSearch {
+        DepthSearch {
+            target,
+            acc: 0.0,
+            last: None,
+        }
+    }
+
+    /// The collision if the target lies in `seg` (majorant depth `tau`).
+    fn step(&mut self, medium: &Medium, seg: Segment, tau: f64) -> Option<Collision> {
         let sigma = medium.sigma_maj(seg.layer);
-        let tau = majorant_depth(medium, &seg);
-        if sigma > 0.0 && acc + tau >= tau_target {
-            hit = Some(Collision {
-                t: (seg.t0 + (tau_target - acc) / sigma).min(seg.t1),
+        if sigma > 0.0 && self.acc + tau >= self.target {
+            return Some(Collision {
+                t: (seg.t0 + (self.target - self.acc) / sigma).min(seg.t1),
                 layer: seg.layer,
                 sigma_maj: sigma,
             });
-            return ControlFlow::Break(());
         }
-        acc += tau;
-        last = Some(seg);
-        ControlFlow::Continue(())
-    });
-    hit.unwrap_or_else(|| {
-        let seg = last.expect("a located flight has a segment");
+        self.acc += tau;
+        self.last = Some(seg);
+        None
+    }
+
+    /// Rounding left the target just beyond the last segment: its end.
+    fn beyond(&self, medium: &Medium) -> Collision {
+        let seg = self.last.expect("a located flight has a segment");
         Collision {
             t: seg.t1,
             layer: seg.layer,
             sigma_maj: medium.sigma_maj(seg.layer),
         }
-    })
-}
-
-/// The point at optical depth `tau_target` along the walked `segments`.
-pub fn locate(medium: &Medium, segments: &[(Segment, f64)], tau_target: f64) -> Collision {
-    let mut acc = 0.0;
-    for &(seg, tau) in segments {
-        if acc + tau >= tau_target {
-            let sigma = medium.sigma_maj(seg.layer);
-            let t = (seg.t0 + (tau_target - acc) / sigma).min(seg.t1);
-            return Collision {
-                t,
-                layer: seg.layer,
-                sigma_maj: sigma,
-            };
-        }
-        acc += tau;
-    }
-    // Rounding left the target just beyond the last segment: its end.
-    let (seg, _) = segments[segments.len() - 1];
-    Collision {
-        t: seg.t1,
-        layer: seg.layer,
-        sigma_maj: medium.sigma_maj(seg.layer),
     }
 }
 
