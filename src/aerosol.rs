@@ -275,20 +275,37 @@ impl Aerosol {
         (range, limiting)
     }
 
-    /// Optics of gas layer `i` of `profile` at λ (nm), with the layer's own
-    /// relative humidity. `None` if λ is outside a component's table.
-    pub fn layer_optics(&self, profile: &GasProfile, i: usize, lambda_nm: f64) -> Option<AerosolOptics> {
+    /// The parts of gas layer `i` of `profile`: (component, tabulated
+    /// humidity index, mean mass density) for each component with mass, at
+    /// the layer's own relative humidity. `None` if a component with mass
+    /// has no optical properties.
+    pub fn layer_parts(&self, profile: &GasProfile, i: usize) -> Option<Vec<(usize, usize, f64)>> {
         let (z0, z1) = (profile.levels[i].z_km, profile.levels[i + 1].z_km);
         let rh = profile.layer_relative_humidity_pct(i);
-        let mut out = AerosolOptics::default();
-        let mut g_sca = 0.0;
+        let mut parts = Vec::new();
         for (c, comp) in self.components.iter().enumerate() {
             let m = self.mixture.mean_mass(c, z0, z1);
             if m == 0.0 {
                 continue;
             }
             let comp = comp.as_ref()?;
-            let o = comp.optics(lambda_nm, comp.nearest_rh(rh))?;
+            parts.push((c, comp.nearest_rh(rh), m));
+        }
+        Some(parts)
+    }
+
+    /// Component `c`'s optical properties (`None` for one without mass).
+    pub fn component(&self, c: usize) -> Option<&Component> {
+        self.components[c].as_ref()
+    }
+
+    /// Optics of gas layer `i` of `profile` at λ (nm), with the layer's own
+    /// relative humidity. `None` if λ is outside a component's table.
+    pub fn layer_optics(&self, profile: &GasProfile, i: usize, lambda_nm: f64) -> Option<AerosolOptics> {
+        let mut out = AerosolOptics::default();
+        let mut g_sca = 0.0;
+        for (c, rh, m) in self.layer_parts(profile, i)? {
+            let o = self.components[c].as_ref()?.optics(lambda_nm, rh)?;
             out.sigma_ext += m * o.k_ext;
             out.sigma_sca += m * o.k_sca;
             g_sca += m * o.k_sca * o.g;

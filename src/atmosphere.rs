@@ -12,7 +12,9 @@ use crate::error::{Error, Result};
 use crate::ozone::{CrossSection, OzoneModel};
 use crate::profile::{GasProfile, exp_first_moment, exp_mean};
 use crate::rayleigh::{self, RayleighModel};
+use crate::spectral_terms::{Response, SpectralTerms, Spectrum};
 use crate::visibility::{GroundExtinction, Visibility};
+use std::sync::Arc;
 
 /// Optical properties of one layer at one wavelength. Coefficients in km⁻¹.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -153,6 +155,163 @@ pub struct Atmosphere {
     /// How density varies inside each layer, for the `smooth` medium;
     /// `None` for explicit layers (which are homogeneous by definition).
     pub layer_shapes: Option<Vec<LayerShape>>,
+    /// The layer optics at any wavelength, as terms (for bands).
+    pub terms: SpectralTerms,
+}
+
+/// Checks every wavelength against the data of `spec`'s constituents, and
+/// returns its ozone cross section.
+pub fn check_wavelengths(
+    spec: &ProfileSpec,
+    wavelengths_nm: &[f64],
+) -> std::result::Result<Option<CrossSection>, BuildError> {
+    let ozone = CrossSection::builtin(spec.ozone)
+        .transpose()
+        .map_err(|e| BuildError::Data(e.to_string()))?;
+    let check = |lambda_nm: f64, what: &str, (lo, hi): (f64, f64)| {
+        if lambda_nm >= lo && lambda_nm <= hi {
+            Ok(())
+        } else {
+            Err(BuildError::Wavelength {
+                lambda_nm,
+                what: what.to_string(),
+                range_nm: (lo, hi),
+            })
+        }
+    };
+    for &l in wavelengths_nm {
+        if spec.rayleigh == RayleighModel::Bodhaine {
+            check(l, "the Bodhaine Rayleigh formula", rayleigh::WAVELENGTH_RANGE_NM)?;
+        }
+        if let Some(x) = &ozone {
+            check(l, &format!("the {} ozone cross section", x.name), x.range_nm())?;
+        }
+        if let Some(a) = &spec.aerosol {
+            let (range, comp) = a.range_nm();
+            check(l, &format!("OPAC component `{comp}` of `{}`", a.mixture.name), range)?;
+        }
+    }
+
+    Ok(ozone)
+}
+
+/// The terms of a profile atmosphere (see `spectral_terms`): what
+/// [`Atmosphere::from_profile`] computes per wavelength, separated.
+fn profile_terms(
+    profile: &GasProfile,
+    spec: &ProfileSpec,
+    ozone: Option<Arc<CrossSection>>,
+    aerosol: Option<&Aerosol>,
+    co2_ratio: f64,
+) -> SpectralTerms {
+    let layers = 0..profile.layer_count();
+    // Columns are per cm², coefficients per km.
+    let per_km = |i: usize| 1.0 / (profile.levels[i + 1].z_km - profile.levels[i].z_km);
+    let mut terms = SpectralTerms::default();
+    if spec.rayleigh == RayleighModel::Bodhaine {
+        let air = layers.clone().map(|i| profile.air_column_cm2(i) * per_km(i)).collect();
+        terms.push(air, Spectrum::Air { co2_ratio });
+    }
+    if let Some(table) = ozone {
+        for power in 0..3 {
+            let amount = layers
+                .clone()
+                .map(|i| {
+                    let dt = profile.layer_temperature_k(i) - table.t0_k();
+                    profile.o3_column_cm2(i) * per_km(i) * dt.powi(power as i32)
+                })
+                .collect();
+            terms.push(
+                amount,
+                Spectrum::Ozone {
+                    table: table.clone(),
+                    power,
+                },
+            );
+        }
+    }
+    if let Some(layers_spec) = &spec.aerosol_layers {
+        let per_layer: Vec<(f64, f64, f64)> = layers
+            .clone()
+            .map(|i| explicit_aerosol(layers_spec, profile.levels[i].z_km, profile.levels[i + 1].z_km))
+            .collect();
+        let unit = |f: fn(&mut Response)| {
+            let mut r = Response::default();
+            f(&mut r);
+            Spectrum::Constant(r)
+        };
+        terms.push(per_layer.iter().map(|p| p.0).collect(), unit(|r| r.ext = 1.0));
+        terms.push(per_layer.iter().map(|p| p.1).collect(), unit(|r| r.aerosol_sca = 1.0));
+        terms.push(
+            per_layer.iter().map(|p| p.1 * p.2).collect(),
+            unit(|r| r.g_aerosol_sca = 1.0),
+        );
+    } else if let Some(a) = aerosol {
+        // One term per (component, humidity index) present.
+        let parts: Vec<Vec<(usize, usize, f64)>> = layers
+            .clone()
+            .map(|i| a.layer_parts(profile, i).unwrap_or_default())
+            .collect();
+        let mut keys: Vec<(usize, usize)> = parts.iter().flatten().map(|&(c, rh, _)| (c, rh)).collect();
+        keys.sort_unstable();
+        keys.dedup();
+        for (c, rh) in keys {
+            let Some(component) = a.component(c) else { continue };
+            let amount = parts
+                .iter()
+                .map(|p| p.iter().filter(|q| q.0 == c && q.1 == rh).map(|q| q.2).sum())
+                .collect();
+            let component = Arc::new(component.clone());
+            terms.push(amount, Spectrum::Aerosol { component, rh });
+        }
+    }
+    terms
+}
+
+/// The terms of explicit layers: constant responses.
+fn constant_terms(layers: &[LayerOptics]) -> SpectralTerms {
+    let mut terms = SpectralTerms::default();
+    let fields: [(fn(&LayerOptics) -> f64, Response); 5] = [
+        (
+            LayerOptics::sigma_t,
+            Response {
+                ext: 1.0,
+                ..Response::default()
+            },
+        ),
+        (
+            |o| o.sigma_rayleigh,
+            Response {
+                rayleigh: 1.0,
+                ..Response::default()
+            },
+        ),
+        (
+            |o| o.rayleigh_depolarization * o.sigma_rayleigh,
+            Response {
+                rho_rayleigh: 1.0,
+                ..Response::default()
+            },
+        ),
+        (
+            |o| o.sigma_aerosol_sca,
+            Response {
+                aerosol_sca: 1.0,
+                ..Response::default()
+            },
+        ),
+        (
+            |o| o.aerosol_g * o.sigma_aerosol_sca,
+            Response {
+                g_aerosol_sca: 1.0,
+                ..Response::default()
+            },
+        ),
+    ];
+    for (f, r) in fields {
+        terms.push(layers.iter().map(f).collect(), Spectrum::Constant(r));
+    }
+    terms
 }
 
 /// The variation of the gas densities inside one layer, from the profile's
@@ -219,32 +378,7 @@ impl Atmosphere {
         wavelengths_nm: &[f64],
     ) -> std::result::Result<Atmosphere, BuildError> {
         let mut profile = spec.profile.truncated(top_km);
-        let ozone = CrossSection::builtin(spec.ozone)
-            .transpose()
-            .map_err(|e| BuildError::Data(e.to_string()))?;
-        let check = |lambda_nm: f64, what: &str, (lo, hi): (f64, f64)| {
-            if lambda_nm >= lo && lambda_nm <= hi {
-                Ok(())
-            } else {
-                Err(BuildError::Wavelength {
-                    lambda_nm,
-                    what: what.to_string(),
-                    range_nm: (lo, hi),
-                })
-            }
-        };
-        for &l in wavelengths_nm {
-            if spec.rayleigh == RayleighModel::Bodhaine {
-                check(l, "the Bodhaine Rayleigh formula", rayleigh::WAVELENGTH_RANGE_NM)?;
-            }
-            if let Some(x) = &ozone {
-                check(l, &format!("the {} ozone cross section", x.name), x.range_nm())?;
-            }
-            if let Some(a) = &spec.aerosol {
-                let (range, comp) = a.range_nm();
-                check(l, &format!("OPAC component `{comp}` of `{}`", a.mixture.name), range)?;
-            }
-        }
+        let ozone = check_wavelengths(spec, wavelengths_nm)?;
 
         // Ozone column scaling.
         let ozone_column_du = if spec.ozone == OzoneModel::None {
@@ -329,6 +463,7 @@ impl Atmosphere {
             })
             .collect();
 
+        let terms = profile_terms(&profile, spec, ozone.map(Arc::new), aerosol.as_ref(), co2);
         let layer_shapes = profile
             .levels
             .windows(2)
@@ -344,6 +479,7 @@ impl Atmosphere {
             visibility,
             ozone_column_du,
             layer_shapes: Some(layer_shapes),
+            terms,
         })
     }
 
@@ -386,6 +522,7 @@ impl Atmosphere {
         Ok(Atmosphere {
             levels_km,
             wavelengths_nm: wavelengths_nm.to_vec(),
+            terms: constant_terms(&per_layer),
             optics: vec![per_layer; wavelengths_nm.len()],
             visibility: None,
             ozone_column_du: None,

@@ -41,6 +41,7 @@ pub mod shell;
 pub mod sky_image;
 pub mod solar;
 pub mod spectral;
+pub mod spectral_terms;
 pub mod stats;
 pub mod stokes;
 pub mod sun;

@@ -71,6 +71,25 @@ impl CrossSection {
         )
     }
 
+    /// The reference temperature T₀ (K) of the quadratic.
+    pub fn t0_k(&self) -> f64 {
+        self.t0_k
+    }
+
+    /// Coefficient `k` (0, 1, 2) of the quadratic in T − T₀ at λ, in cm²
+    /// (K⁻ᵏ), interpolated linearly like the cross section itself, so that
+    /// Σ_k c_k(λ)(T − T₀)ᵏ is [`Self::sigma_cm2`]; `None` outside the table.
+    pub fn coefficient_cm2(&self, lambda_nm: f64, k: usize) -> Option<f64> {
+        let (i, f) = data::bracket(&self.wavelengths_nm, lambda_nm)?;
+        let c0 = self.coefficients[i][k];
+        let c = if f == 0.0 {
+            c0
+        } else {
+            c0 + (self.coefficients[i + 1][k] - c0) * f
+        };
+        Some(c * 1.0e-20)
+    }
+
     /// Cross section (cm²) at λ (nm) and temperature T (K); `None` outside
     /// the table.
     pub fn sigma_cm2(&self, lambda_nm: f64, t_k: f64) -> Option<f64> {
