@@ -201,7 +201,7 @@ pub fn render_directions_spectral(
     seed: u64,
     key: u64,
 ) -> Vec<Vec<Vec<Tally>>> {
-    let (nw, na) = (scene.media.len(), scene.albedos.len());
+    let (nw, na) = (scene.channel_count(), scene.albedos.len());
     let per_direction: Vec<Vec<Tally>> = directions
         .iter()
         .enumerate()

@@ -19,48 +19,92 @@
 //! bounded, while the hero scheme is bounded by construction and reuses
 //! the forced-collision flights of the single-wavelength tracer.
 //!
-//! Geometry (the shell walk, shadow-ray walks) is computed once per path;
-//! optical depths per wavelength are σ_λ × chord on the shared segments.
-//! Requires piecewise-constant media (the `layered` model) and forced
-//! collisions; sun connections are made at the collision points.
-
-use std::f64::consts::FRAC_1_PI;
-
-use glam::DVec3;
+//! Channels may be bands (`band_width_nm` > 0): each path then draws its
+//! own wavelength inside each band, stratified over the estimate's samples
+//! (`Sampler::stratified`), and estimates the band-averaged radiance. The
+//! optics at any wavelength come from the atmosphere's terms
+//! (`spectral_terms`): per path, one response per term and channel.
+//!
+//! Optical depths along a ray are computed once per extinction basis
+//! vector (the atmosphere's extinction terms, or the channels' own σ_t
+//! profiles for monochromatic channels when there are fewer channels than
+//! terms) and combined per channel: τ_λ = Σ_b W_λb·τ_b. Requires
+//! piecewise-constant media (the `layered` model) and forced collisions;
+//! sun connections are made at the collision points.
 
 use std::cell::RefCell;
+use std::f64::consts::FRAC_1_PI;
 use std::ops::ControlFlow;
+
+use glam::DVec3;
 
 use crate::integrator::{
     INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component,
     reference_albedo, scattering_frame,
 };
-use crate::medium::{Medium, PointCoefficients, density_steps};
+use crate::medium::{MediumModel, PointCoefficients, density_steps};
 use crate::phase::PhaseMixture;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
+use crate::spectral_terms::{Response, SpectralTerms};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
 use crate::sun::Sun;
 use crate::tracking::{self, Ray, WalkEnd};
+
+/// One output channel: a wavelength, or a band around it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Channel {
+    pub lambda_nm: f64,
+    /// Full width of the band centred on `lambda_nm`; 0 for one wavelength.
+    pub band_width_nm: f64,
+}
+
+impl Channel {
+    /// The channel's wavelength for a uniform variate `u` (its centre for a
+    /// monochromatic channel).
+    pub fn wavelength(&self, u: f64) -> f64 {
+        self.lambda_nm + self.band_width_nm * (u - 0.5)
+    }
+}
+
+/// What the channels' optics are on one path: each channel's term
+/// responses (`[channel·terms + term]`) and extinction weights on the
+/// basis (`[channel·basis + b]`).
+#[derive(Debug, Clone, Default)]
+struct ChannelSpectra {
+    responses: Vec<Response>,
+    weights: Vec<f64>,
+}
+
+/// The basis optical depths are computed on.
+#[derive(Debug, Clone)]
+enum Basis {
+    /// The extinction terms (their indices among the atmosphere's terms).
+    Terms(Vec<usize>),
+    /// One σ_t profile per (monochromatic) channel.
+    Channels,
+}
 
 /// Everything a shared-wavelength path needs.
 #[derive(Debug, Clone)]
 pub struct SpectralScene {
     pub geometry: Geometry,
-    /// One medium per wavelength, on the same levels.
-    pub media: Vec<Medium>,
     pub sun: Sun,
     pub albedos: Vec<f64>,
     pub settings: Settings,
-    /// σ_t per layer and wavelength, layer-major (`[layer·N + λ]`), so the
-    /// per-segment optical depths of all wavelengths are one contiguous loop.
-    sigma_t: Vec<f64>,
-    /// σ_t's steps per wavelength and level (`[λ·(layers + 1) + level]`,
-    /// see `Medium::steps`).
-    steps: Vec<f64>,
-    /// σ_s and the phase mixture per layer and wavelength (`[layer·N + λ]`).
-    sigma_s: Vec<f64>,
-    mixtures: Vec<PhaseMixture>,
+    levels_km: Vec<f64>,
+    terms: SpectralTerms,
+    channels: Vec<Channel>,
+    basis: Basis,
+    /// The number of basis vectors.
+    basis_len: usize,
+    /// σ of each basis vector per layer (`[layer·basis + b]`).
+    basis_sigma: Vec<f64>,
+    /// Its steps per level (`[b·levels + level]`, see `Medium::steps`).
+    basis_steps: Vec<f64>,
+    /// The spectra of monochromatic channels (all paths share them); for
+    /// bands, each path has its own.
+    fixed: Option<ChannelSpectra>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -96,21 +140,32 @@ struct Path {
     radiance: Vec<Stokes>,
     albedos: usize,
     /// Scratch per wavelength: optical depths to the exit and to the
-    /// collision, forcing probabilities, phase matrices.
+    /// collision, forcing probabilities, phase mixtures and matrices at
+    /// the last collision.
     tau_exit: Vec<f64>,
     tau_hit: Vec<f64>,
     forced: Vec<f64>,
+    mixtures: Vec<PhaseMixture>,
     matrices: Vec<PhaseMatrix>,
+    /// Scratch per basis vector: optical depths.
+    tau_basis: Vec<f64>,
     /// Scratch per level: the weighted half chords of a ray.
     chords: Vec<f64>,
 }
 
+/// A thread's reusable state: the path and, for bands, its spectra.
+#[derive(Default)]
+struct Work {
+    path: Path,
+    spectra: ChannelSpectra,
+}
+
 thread_local! {
-    static WORK: RefCell<Path> = RefCell::new(Path::default());
+    static WORK: RefCell<Work> = RefCell::new(Work::default());
 }
 
 impl Path {
-    fn reset(&mut self, n: usize, levels: usize, albedos: usize, frame_e1: DVec3, hero: usize) {
+    fn reset(&mut self, n: usize, levels: usize, basis: usize, albedos: usize, frame_e1: DVec3, hero: usize) {
         self.throughput.clear();
         self.throughput.resize(n, Mueller::identity());
         self.density_ratio.clear();
@@ -126,6 +181,7 @@ impl Path {
         for v in [&mut self.tau_exit, &mut self.tau_hit, &mut self.forced] {
             v.resize(n, 0.0);
         }
+        self.tau_basis.resize(basis, 0.0);
         self.chords.resize(levels, 0.0);
     }
 
@@ -184,55 +240,141 @@ enum Outcome {
 }
 
 impl SpectralScene {
-    /// A scene over `media` (one per wavelength, same levels).
+    /// A scene of `channels` over an atmosphere's levels and terms.
     pub fn new(
         geometry: Geometry,
-        media: Vec<Medium>,
+        levels_km: Vec<f64>,
+        terms: SpectralTerms,
+        channels: Vec<Channel>,
         sun: Sun,
         albedos: Vec<f64>,
         settings: Settings,
     ) -> SpectralScene {
-        let layers = media[0].levels_km().len() - 1;
-        let sigma_t = (0..layers)
-            .flat_map(|l| media.iter().map(move |m| m.sigma_maj(l)))
-            .collect();
-        let steps = media
-            .iter()
-            .flat_map(|m| density_steps(&(0..layers).map(|l| m.sigma_maj(l)).collect::<Vec<_>>()))
-            .collect();
-        // Constant per layer (the media are piecewise constant).
-        let coeffs: Vec<PointCoefficients> = (0..layers)
-            .flat_map(|l| {
-                let mid = 0.5 * (media[0].levels_km()[l] + media[0].levels_km()[l + 1]);
-                media.iter().map(move |m| m.at(l, mid))
-            })
-            .collect();
-        SpectralScene {
+        let layers = levels_km.len() - 1;
+        let n = channels.len();
+        let banded = channels.iter().any(|c| c.band_width_nm > 0.0);
+        let t = terms.terms.len();
+        let mut centre = vec![Response::default(); n * t];
+        for (w, c) in channels.iter().enumerate() {
+            terms.responses_into(c.lambda_nm, &mut centre[w * t..(w + 1) * t]);
+        }
+        let ext_terms: Vec<usize> = (0..t).filter(|&k| terms.terms[k].spectrum.has_extinction()).collect();
+        let basis = if !banded && ext_terms.len() > n {
+            Basis::Channels
+        } else {
+            Basis::Terms(ext_terms)
+        };
+        // Each basis vector's σ per layer.
+        let profiles: Vec<Vec<f64>> = match &basis {
+            Basis::Terms(k) => k.iter().map(|&k| terms.terms[k].amount.clone()).collect(),
+            Basis::Channels => (0..n)
+                .map(|w| {
+                    (0..layers)
+                        .map(|l| terms.layer_sum(l, &centre[w * t..(w + 1) * t]).ext)
+                        .collect()
+                })
+                .collect(),
+        };
+        let b = profiles.len();
+        let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
+        let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
+        let mut scene = SpectralScene {
             geometry,
-            media,
             sun,
             albedos,
             settings,
-            sigma_t,
-            steps,
-            sigma_s: coeffs.iter().map(PointCoefficients::sigma_s).collect(),
-            mixtures: coeffs.iter().map(phase_mixture).collect(),
+            levels_km,
+            terms,
+            channels,
+            basis,
+            basis_len: b,
+            basis_sigma,
+            basis_steps,
+            fixed: None,
+        };
+        if !banded {
+            let mut fixed = ChannelSpectra {
+                responses: centre,
+                weights: vec![0.0; n * b],
+            };
+            scene.refresh_weights(&mut fixed);
+            scene.fixed = Some(fixed);
+        }
+        scene
+    }
+
+    /// Fills the spectra's extinction weights from its responses.
+    fn refresh_weights(&self, spectra: &mut ChannelSpectra) {
+        let (n, t, b) = (self.channels.len(), self.terms.terms.len(), self.basis_len);
+        match &self.basis {
+            Basis::Terms(k) => {
+                spectra.weights.resize(n * b, 0.0);
+                for w in 0..n {
+                    for (j, &k) in k.iter().enumerate() {
+                        spectra.weights[w * b + j] = spectra.responses[w * t + k].ext;
+                    }
+                }
+            }
+            Basis::Channels => {
+                spectra.weights.clear();
+                spectra.weights.resize(n * n, 0.0);
+                for w in 0..n {
+                    spectra.weights[w * n + w] = 1.0;
+                }
+            }
         }
     }
 
-    /// Adds σ_t(λ)·`len` of `layer` to every wavelength's `tau`.
+    /// The spectra of one path: each band's wavelength drawn (stratified
+    /// over the estimate's samples, one dimension per channel).
+    fn draw_spectra(&self, spectra: &mut ChannelSpectra, sampler: &Sampler) {
+        let t = self.terms.terms.len();
+        spectra.responses.resize(self.channels.len() * t, Response::default());
+        for (w, c) in self.channels.iter().enumerate() {
+            let lambda = c.wavelength(sampler.stratified(w as u64));
+            self.terms
+                .responses_into(lambda, &mut spectra.responses[w * t..(w + 1) * t]);
+        }
+        self.refresh_weights(spectra);
+    }
+
+    /// The number of channels.
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// Whether shared paths can render media of this model: piecewise
+    /// constant (the `layered` model tracked against σ_t itself) with
+    /// forced collisions.
+    pub fn supported(model: MediumModel, majorant_scale: f64, settings: &Settings) -> bool {
+        settings.forced_collisions && model == MediumModel::Layered && majorant_scale == 1.0
+    }
+
+    /// σ_t of channel `w` in `layer`.
+    #[inline]
+    fn sigma_t(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
+        let b = self.basis_len;
+        let weights = &spectra.weights[w * b..(w + 1) * b];
+        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        weights.iter().zip(sigma).map(|(a, s)| a * s).sum::<f64>().max(0.0)
+    }
+
+    /// Adds every basis vector's σ·`len` of `layer` to `tau`.
     #[inline]
     fn accumulate(&self, tau: &mut [f64], layer: usize, len: f64) {
-        let n = tau.len();
-        for (t, s) in tau.iter_mut().zip(&self.sigma_t[layer * n..(layer + 1) * n]) {
+        let b = tau.len();
+        for (t, s) in tau.iter_mut().zip(&self.basis_sigma[layer * b..(layer + 1) * b]) {
             *t += s * len;
         }
     }
 
-    /// Whether shared paths can render these media: piecewise-constant
-    /// coefficients and forced collisions.
-    pub fn supported(media: &[Medium], settings: &Settings) -> bool {
-        settings.forced_collisions && media.iter().all(Medium::is_piecewise_constant)
+    /// Each channel's optical depth from the basis depths.
+    fn combine(spectra: &ChannelSpectra, tau_basis: &[f64], tau: &mut [f64]) {
+        let b = tau_basis.len();
+        for (w, t) in tau.iter_mut().enumerate() {
+            let weights = &spectra.weights[w * b..(w + 1) * b];
+            *t = weights.iter().zip(tau_basis).map(|(a, s)| a * s).sum::<f64>().max(0.0);
+        }
     }
 
     fn observer_position(&self, altitude_km: f64) -> DVec3 {
@@ -250,6 +392,18 @@ impl SpectralScene {
         self.settings.max_scattering_order != 0 && order >= self.settings.max_scattering_order
     }
 
+    /// The coefficients of channel `w` in `layer`.
+    fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> PointCoefficients {
+        let t = self.terms.terms.len();
+        let mut c = self
+            .terms
+            .layer_sum(layer, &spectra.responses[w * t..(w + 1) * t])
+            .coefficients();
+        // The extinction the flights see (the same sum, on the basis).
+        c.sigma_t = self.sigma_t(spectra, layer, w);
+        c
+    }
+
     /// One sample of the diffuse Stokes radiance at every wavelength and
     /// albedo, arriving from `view` (see `integrator::Scene::radiance_sample`).
     pub fn radiance_sample(
@@ -259,18 +413,27 @@ impl SpectralScene {
         phi_fallback: f64,
         sampler: &mut Sampler,
     ) -> SpectralRadiances {
-        WORK.with_borrow_mut(|path| {
-            let n = self.media.len();
+        WORK.with_borrow_mut(|work| {
+            let Work { path, spectra } = work;
+            let spectra = match &self.fixed {
+                Some(fixed) => fixed,
+                None => {
+                    self.draw_spectra(spectra, sampler);
+                    &*spectra
+                }
+            };
+            let n = self.channels.len();
             let albedos = self.albedos.len().min(MAX_ALBEDOS);
             let (e1, _) = meridian_frame(view, phi_fallback);
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-            let levels = self.media[0].levels_km();
-            path.reset(n, levels.len(), albedos, e1, hero);
+            let levels = &self.levels_km;
+            path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
             let origin = self.observer_position(altitude_km);
             let up = self.geometry.up(origin);
             match tracking::layer_at(levels, altitude_km, view.dot(up)) {
                 Some(layer) => self.trace(
                     path,
+                    spectra,
                     Ray {
                         origin,
                         dir: view,
@@ -279,9 +442,9 @@ impl SpectralScene {
                     sampler,
                 ),
                 None => {
-                    if altitude_km <= levels[0] && view.dot(up) < 0.0 && self.ground(path, origin, sampler) {
+                    if altitude_km <= levels[0] && view.dot(up) < 0.0 && self.ground(path, spectra, origin, sampler) {
                         let dir = cosine_hemisphere(up, sampler.next2());
-                        self.trace(path, Ray { origin, dir, layer: 0 }, sampler);
+                        self.trace(path, spectra, Ray { origin, dir, layer: 0 }, sampler);
                     }
                 }
             }
@@ -293,19 +456,18 @@ impl SpectralScene {
         })
     }
 
-    fn trace(&self, path: &mut Path, mut ray: Ray, sampler: &mut Sampler) {
-        let n = self.media.len();
+    fn trace(&self, path: &mut Path, spectra: &ChannelSpectra, mut ray: Ray, sampler: &mut Sampler) {
+        let n = self.channels.len();
         loop {
-            let mut tau_exit = std::mem::take(&mut path.tau_exit);
-            let end = self.exit_depths(&ray, &mut path.chords, &mut tau_exit);
-            path.tau_exit = tau_exit;
-            let Some(end) = end else { return };
+            let Some(end) = self.exit_depths(path, spectra, &ray) else {
+                return;
+            };
             let analog = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
-            match self.flight(path, &ray, end, analog, sampler) {
+            match self.flight(path, spectra, &ray, end, analog, sampler) {
                 Outcome::Escaped => return,
                 Outcome::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
-                    if !self.ground(path, x, sampler) {
+                    if !self.ground(path, spectra, x, sampler) {
                         return;
                     }
                     let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
@@ -317,10 +479,9 @@ impl SpectralScene {
                 }
                 Outcome::Collided { t, layer } => {
                     let x = ray.origin + t * ray.dir;
-                    let mixtures = &self.mixtures[layer * n..(layer + 1) * n];
                     let k_out = -ray.dir;
                     path.order += 1;
-                    self.sun_from_scattering(path, x, layer, k_out, sampler);
+                    self.sun_from_scattering(path, spectra, x, layer, k_out, sampler);
                     if self.order_done(path.order) {
                         return;
                     }
@@ -328,12 +489,12 @@ impl SpectralScene {
                     // uniformly, weighted by the mixture of all wavelengths'
                     // densities.
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-                    let coeffs = self.media[pick].at(layer, self.geometry.altitude(x));
+                    let coeffs = self.coefficients(spectra, layer, pick);
                     let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
                     let cos = k_in.dot(k_out);
                     path.matrices.clear();
-                    path.matrices.extend(mixtures.iter().map(|m| m.matrix(cos)));
+                    path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(cos)));
                     let inv_mean_p11 = n as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
                     let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
                     for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
@@ -357,14 +518,15 @@ impl SpectralScene {
         }
     }
 
-    /// Every wavelength's optical depth from the ray's origin to where it
-    /// leaves (top or ground) into `tau`, and how it leaves; `None` for an
-    /// endless (horizontal plane-parallel) ray. `chords` is scratch.
-    fn exit_depths(&self, ray: &Ray, chords: &mut [f64], tau: &mut [f64]) -> Option<WalkEnd> {
-        let n = tau.len();
-        let levels = self.media[0].levels_km();
+    /// Every channel's optical depth from the ray's origin to where it
+    /// leaves (top or ground) into `path.tau_exit`, and how it leaves;
+    /// `None` for an endless (horizontal plane-parallel) ray.
+    fn exit_depths(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray) -> Option<WalkEnd> {
+        let levels = &self.levels_km;
+        let b = self.basis_len;
+        let tau = &mut path.tau_basis;
         tau.fill(0.0);
-        match self.geometry {
+        let end = match self.geometry {
             Geometry::Spherical { radius_km } => {
                 let exit = tracking::shell_exit(radius_km, levels, ray);
                 // The levels crossed, in one run: twice (a dip), then once.
@@ -374,14 +536,14 @@ impl SpectralScene {
                     exit.twice.start
                 };
                 let range = start..exit.once.end;
-                let c = &mut chords[range.clone()];
+                let c = &mut path.chords[range.clone()];
                 tracking::half_chords_into(radius_km, &levels[range.clone()], exit.h, c);
                 c[..exit.twice.len()].iter_mut().for_each(|x| *x *= 2.0);
-                let base = &self.sigma_t[ray.layer * n..(ray.layer + 1) * n];
+                let base = &self.basis_sigma[ray.layer * b..(ray.layer + 1) * b];
                 let stride = levels.len();
-                for (w, (t, s)) in tau.iter_mut().zip(base).enumerate() {
-                    let steps = &self.steps[w * stride + range.start..w * stride + range.end];
-                    *t = (tracking::dot(c, steps) - exit.b * s).max(0.0);
+                for (j, (t, s)) in tau.iter_mut().zip(base).enumerate() {
+                    let steps = &self.basis_steps[j * stride + range.start..j * stride + range.end];
+                    *t = tracking::dot(c, steps) - exit.b * s;
                 }
                 Some(exit.end(radius_km, levels, ray))
             }
@@ -397,13 +559,25 @@ impl SpectralScene {
                 });
                 (!endless).then_some(end)
             }
-        }
+        };
+        Self::combine(spectra, &path.tau_basis, &mut path.tau_exit);
+        end
     }
 
     /// Samples the flight's outcome with the path's hero wavelength; every
     /// wavelength's integrand and density go in over the hero's density.
-    /// `path.tau_exit` holds the depths to the flight's `end`.
-    fn flight(&self, path: &mut Path, ray: &Ray, end: WalkEnd, analog: bool, sampler: &mut Sampler) -> Outcome {
+    /// `path.tau_exit` holds the depths to the flight's `end`. At a
+    /// collision, `path.mixtures` gets every channel's phase mixture there.
+    fn flight(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        end: WalkEnd,
+        analog: bool,
+        sampler: &mut Sampler,
+    ) -> Outcome {
+        let n = self.channels.len();
         let hero = path.hero;
         let u = sampler.next_f64();
         let target = if analog {
@@ -411,7 +585,7 @@ impl SpectralScene {
             if tau >= path.tau_exit[hero] {
                 // The ground, reached with probability e^(−τ) at every λ.
                 let hero_p = (-path.tau_exit[hero]).exp();
-                for w in 0..self.media.len() {
+                for w in 0..n {
                     let k = (-path.tau_exit[w]).exp() / hero_p;
                     path.throughput[w] = path.throughput[w] * k;
                     path.scale_density(w, k);
@@ -434,22 +608,22 @@ impl SpectralScene {
             tracking::forced_distance(u, path.forced[hero])
         };
         // Locate the collision along the hero's optical depth, with every
-        // wavelength's depth to it accumulated on the way.
-        let hero_medium = &self.media[hero];
+        // basis vector's depth to it accumulated on the way.
         let mut acc = 0.0;
         let mut hit = None;
         let mut last = None;
-        path.tau_hit.fill(0.0);
-        tracking::walk(&self.geometry, hero_medium.levels_km(), ray, |s| {
-            let sigma = hero_medium.sigma_maj(s.layer);
+        let tau = &mut path.tau_basis;
+        tau.fill(0.0);
+        tracking::walk(&self.geometry, &self.levels_km, ray, |s| {
+            let sigma = self.sigma_t(spectra, s.layer, hero);
             let d = sigma * (s.t1 - s.t0);
             if sigma > 0.0 && acc + d >= target {
                 let t = (s.t0 + (target - acc) / sigma).min(s.t1);
-                self.accumulate(&mut path.tau_hit, s.layer, t - s.t0);
+                self.accumulate(tau, s.layer, t - s.t0);
                 hit = Some((t, s.layer));
                 return ControlFlow::Break(());
             }
-            self.accumulate(&mut path.tau_hit, s.layer, s.t1 - s.t0);
+            self.accumulate(tau, s.layer, s.t1 - s.t0);
             acc += d;
             last = Some((s.t1, s.layer));
             ControlFlow::Continue(())
@@ -457,57 +631,67 @@ impl SpectralScene {
         let Some((t, layer)) = hit.or(last) else {
             return Outcome::Escaped;
         };
+        Self::combine(spectra, &path.tau_basis, &mut path.tau_hit);
         // The collision's density per wavelength (σ_t·e^(−τ), over the
         // forcing probability for a forced flight), over the hero's.
-        let n = self.media.len();
-        let sigma_t = &self.sigma_t[layer * n..(layer + 1) * n];
-        let sigma_s = &self.sigma_s[layer * n..(layer + 1) * n];
-        let density = |w: usize, transmittance: f64, path: &Path| {
-            let q = sigma_t[w] * transmittance;
+        let density = |sigma_t: f64, transmittance: f64, forced: f64| {
+            let q = sigma_t * transmittance;
             if analog {
                 q
-            } else if path.forced[w] > 0.0 {
-                q / path.forced[w]
+            } else if forced > 0.0 {
+                q / forced
             } else {
                 0.0
             }
         };
-        let inv_hero = 1.0 / density(hero, (-path.tau_hit[hero]).exp(), path);
-        for (w, sigma_s) in sigma_s.iter().enumerate() {
+        let hero_density = density(
+            self.sigma_t(spectra, layer, hero),
+            (-path.tau_hit[hero]).exp(),
+            path.forced[hero],
+        );
+        let inv_hero = 1.0 / hero_density;
+        path.mixtures.clear();
+        for w in 0..n {
+            let c = self.coefficients(spectra, layer, w);
+            path.mixtures.push(phase_mixture(&c));
             let transmittance = (-path.tau_hit[w]).exp();
-            let k = density(w, transmittance, path) * inv_hero;
-            path.throughput[w] = path.throughput[w] * (sigma_s * transmittance * inv_hero);
+            let k = density(c.sigma_t, transmittance, path.forced[w]) * inv_hero;
+            path.throughput[w] = path.throughput[w] * (c.sigma_s() * transmittance * inv_hero);
             path.scale_density(w, k);
         }
         path.densities_changed();
         Outcome::Collided { t, layer }
     }
 
-    /// Every wavelength's optical depth toward the sun from `x` into
+    /// Every channel's optical depth toward the sun from `x` into
     /// `path.tau_exit`; false when the shadow ray hits the planet.
-    fn sun_depths(&self, path: &mut Path, x: DVec3, dir: DVec3, layer: usize) -> bool {
-        let mut tau = std::mem::take(&mut path.tau_exit);
-        let end = self.exit_depths(&Ray { origin: x, dir, layer }, &mut path.chords, &mut tau);
-        path.tau_exit = tau;
+    fn sun_depths(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, dir: DVec3, layer: usize) -> bool {
+        let end = self.exit_depths(path, spectra, &Ray { origin: x, dir, layer });
         matches!(end, Some(WalkEnd::Top { .. }))
     }
 
-    fn sun_from_scattering(&self, path: &mut Path, x: DVec3, layer: usize, k_out: DVec3, sampler: &mut Sampler) {
-        let n = self.media.len();
-        let mixtures = &self.mixtures[layer * n..(layer + 1) * n];
+    fn sun_from_scattering(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        x: DVec3,
+        layer: usize,
+        k_out: DVec3,
+        sampler: &mut Sampler,
+    ) {
         let s = self.sun.sample_direction(sampler.next2());
-        if !self.sun_depths(path, x, s, layer) {
+        if !self.sun_depths(path, spectra, x, s, layer) {
             return;
         }
         let k_in = -s;
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
-        for (w, mixture) in mixtures.iter().enumerate() {
+        for w in 0..self.channels.len() {
             let tr = (-path.tau_exit[w]).exp();
             if tr <= 0.0 {
                 continue;
             }
-            let m = mixture.matrix(cos);
+            let m = path.mixtures[w].matrix(cos);
             let column = if self.settings.polarized {
                 rotation.column_of(&path.throughput[w], &m)
             } else {
@@ -519,7 +703,7 @@ impl SpectralScene {
 
     /// A ground vertex: NEE to the sun for every wavelength, then the
     /// Lambertian weight. Returns whether the path goes on.
-    fn ground(&self, path: &mut Path, x: DVec3, sampler: &mut Sampler) -> bool {
+    fn ground(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, sampler: &mut Sampler) -> bool {
         if !self.reflects() {
             return false;
         }
@@ -537,8 +721,8 @@ impl SpectralScene {
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
         let mu_s = s.dot(up);
-        if mu_s > 0.0 && self.sun_depths(path, x, s, 0) {
-            for w in 0..self.media.len() {
+        if mu_s > 0.0 && self.sun_depths(path, spectra, x, s, 0) {
+            for w in 0..self.channels.len() {
                 let f = FRAC_1_PI * mu_s * (-path.tau_exit[w]).exp();
                 let m = &path.throughput[w].0;
                 let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);

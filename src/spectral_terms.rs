@@ -76,6 +76,14 @@ pub enum Spectrum {
 }
 
 impl Spectrum {
+    /// Whether the term adds to extinction (at some wavelength).
+    pub fn has_extinction(&self) -> bool {
+        match self {
+            Spectrum::Constant(r) => r.ext != 0.0,
+            Spectrum::Air { .. } | Spectrum::Ozone { .. } | Spectrum::Aerosol { .. } => true,
+        }
+    }
+
     /// The response at λ (nm); zero outside the data (the atmosphere checks
     /// every requested wavelength and band against the data's range).
     pub fn response(&self, lambda_nm: f64) -> Response {

@@ -8,18 +8,20 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::atmosphere::Atmosphere;
+use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
 use crate::integrator::Scene;
-use crate::medium::Medium;
+use crate::integrator::SunSampling;
+use crate::medium::{Medium, MediumModel};
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
-use crate::spectral::SpectralScene;
+use crate::spectral::{Channel, SpectralScene};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
+use spectrum::{band_error, band_widths};
 use raw::RawJob;
 
 /// Default planet radius (km): the sky model's (libRadtran uses 6370).
@@ -32,6 +34,7 @@ pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
 mod atmosphere;
 mod raw;
 mod render;
+mod spectrum;
 mod transmittance;
 
 pub use render::{RenderSpec, Sensor, Units};
@@ -78,6 +81,9 @@ pub struct Job {
     pub planet: Planet,
     pub observer_altitude_km: f64,
     pub wavelengths_nm: Vec<f64>,
+    /// Full width of each channel's band, centred on its wavelength (0: one
+    /// wavelength).
+    pub band_widths_nm: Vec<f64>,
     pub source: AtmosphereSource,
     /// The atmosphere of the first task.
     pub atmosphere: Atmosphere,
@@ -189,11 +195,49 @@ impl Job {
             .collect()
     }
 
-    /// The shared-spectral-path scene of a task: all wavelengths at once,
-    /// when the job has more than one, `render.shared_wavelengths` is on, the
-    /// media allow it (see `spectral`) and the task does not get sun-aware
-    /// sun connections (which shared paths do not have, and which matter more
-    /// for a low sun); `None` otherwise.
+    /// Whether any channel is a band.
+    pub fn banded(&self) -> bool {
+        self.band_widths_nm.iter().any(|&w| w > 0.0)
+    }
+
+    /// The job's channels.
+    pub fn channels(&self) -> Vec<Channel> {
+        self.wavelengths_nm
+            .iter()
+            .zip(&self.band_widths_nm)
+            .map(|(&lambda_nm, &band_width_nm)| Channel {
+                lambda_nm,
+                band_width_nm,
+            })
+            .collect()
+    }
+
+    /// Why shared spectral paths cannot render this job's tasks (the
+    /// offending key and value); `None` when they can.
+    fn shared_paths_blocked(&self) -> Option<(&'static str, String)> {
+        let r = &self.render;
+        if !SpectralScene::supported(r.medium, r.majorant_scale, &r.settings) {
+            return Some(if !r.settings.forced_collisions {
+                ("render.forced_collisions", "false".into())
+            } else if r.medium != MediumModel::Layered {
+                ("render.medium", "\"smooth\"".into())
+            } else {
+                ("render.majorant_scale", r.majorant_scale.to_string())
+            });
+        }
+        if self.pseudo_spherical_radius_km().is_some() {
+            return Some(("planet.geometry", "\"pseudo_spherical\"".into()));
+        }
+        None
+    }
+
+    /// The shared-spectral-path scene of a task: all channels at once, when
+    /// the job has bands, or more than one wavelength with
+    /// `render.shared_wavelengths` on, the media allow it (see `spectral`)
+    /// and (for wavelengths) the task does not get sun-aware sun
+    /// connections (which shared paths do not have, and which matter more
+    /// for a low sun); `None` otherwise. Bands always use shared paths
+    /// (their `auto` sun sampling connects at collisions).
     pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
         let plane_parallel = self.plane_parallel_transport();
         let sun_aware = self
@@ -201,23 +245,45 @@ impl Job {
             .settings
             .sun_sampling
             .is_sun_aware(task.sun.zenith_deg, plane_parallel);
-        // Shared paths have no pseudo-spherical direct beam.
-        let pseudo = self.pseudo_spherical_radius_km().is_some();
-        if !self.render.shared_wavelengths || self.wavelengths_nm.len() < 2 || sun_aware || pseudo {
+        let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1 && !sun_aware);
+        if !wanted || self.shared_paths_blocked().is_some() {
             return None;
         }
-        let media: Vec<Medium> = (0..self.wavelengths_nm.len())
-            .map(|w| Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale))
-            .collect();
-        SpectralScene::supported(&media, &self.render.settings).then(|| {
-            SpectralScene::new(
-                self.geometry(),
-                media,
-                task.sun,
-                self.render.albedos.clone(),
-                self.render.settings,
-            )
-        })
+        Some(SpectralScene::new(
+            self.geometry(),
+            task.atmosphere.levels_km.clone(),
+            task.atmosphere.terms.clone(),
+            self.channels(),
+            task.sun,
+            self.render.albedos.clone(),
+            self.render.settings,
+        ))
+    }
+
+    /// Checks that a job with bands can render them: bands need shared
+    /// paths and their outputs are band averages of normalised radiance.
+    fn check_bands(&self, ctx: &Ctx) -> Result<()> {
+        if !self.banded() {
+            return Ok(());
+        }
+        let why = "spectrum.band_width_nm > 0 renders bands along shared spectral paths";
+        if let Some((key, value)) = self.shared_paths_blocked() {
+            return Err(ctx.invalid(key, value, &format!("{why}, which need the layered medium, forced collisions and spherical or plane-parallel geometry"), "the default, or spectrum.band_width_nm = 0"));
+        }
+        let r = &self.render;
+        let conflicts: [(&str, bool, &str); 4] = [
+            ("render.shared_wavelengths", !r.shared_wavelengths, "false"),
+            ("render.sun_sampling", r.settings.sun_sampling == SunSampling::SunAware, "\"sun_aware\""),
+            ("sensor.fluxes", r.fluxes, "true"),
+            ("output.sun", r.output_sun, "true"),
+        ];
+        if let Some((key, _, value)) = conflicts.iter().find(|c| c.1) {
+            return Err(ctx.invalid(key, value, &format!("{why}; band-averaged {key} is not available"), "leave it out (the default with bands)"));
+        }
+        if r.units == Units::Absolute {
+            return Err(ctx.invalid("output.units", "\"absolute\"", &format!("{why}; band averages are of normalised radiance (per unit solar irradiance)"), "\"normalized\""));
+        }
+        Ok(())
     }
 
     /// The scene of the first task at wavelength index `w`.
@@ -283,7 +349,11 @@ impl Job {
         )?;
         let geometry = planet_raw.geometry.unwrap_or(GeometryKind::Spherical);
 
-        let wavelengths_nm = match raw.spectrum.and_then(|s| s.wavelengths_nm) {
+        let (wavelengths_raw, band_raw) = match raw.spectrum {
+            Some(s) => (s.wavelengths_nm, s.band_width_nm),
+            None => (None, None),
+        };
+        let wavelengths_nm = match wavelengths_raw {
             None => DEFAULT_WAVELENGTHS_NM.to_vec(),
             Some(w) if w.is_empty() => {
                 return Err(ctx.invalid(
@@ -307,6 +377,14 @@ impl Job {
                 w
             }
         };
+
+        let band_widths_nm = band_widths(&ctx, &wavelengths_nm, band_raw)?;
+        let band_edges_nm: Vec<f64> = wavelengths_nm
+            .iter()
+            .zip(&band_widths_nm)
+            .filter(|(_, w)| **w > 0.0)
+            .flat_map(|(l, w)| [l - 0.5 * w, l + 0.5 * w])
+            .collect();
 
         let (source, atmospheres, top_km) = if let Some(layers) = &atm.layers {
             let given: Vec<&str> = [
@@ -354,6 +432,7 @@ impl Job {
                 true,
                 &format!("above the ground, at most the profile's top, {profile_top} km"),
             )?;
+            check_wavelengths(&spec, &band_edges_nm).map_err(|e| band_error(&ctx, &wavelengths_nm, &band_widths_nm, e))?;
             let mut atmospheres = Vec::with_capacity(visibilities.len());
             for v in visibilities {
                 spec.visibility_km = v;
@@ -399,7 +478,8 @@ impl Job {
                 ));
             }
         }
-        let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output)?;
+        let banded = band_widths_nm.iter().any(|&w| w > 0.0);
+        let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output, banded)?;
         let mut tasks = Vec::with_capacity(atmospheres.len() * render.sun_zeniths_deg.len() * altitudes.len());
         for (v, atmosphere) in &atmospheres {
             for &z in &render.sun_zeniths_deg {
@@ -425,7 +505,7 @@ impl Job {
             (geometry == GeometryKind::Spherical).then_some(radius_km),
         )?;
 
-        Ok(Job {
+        let job = Job {
             file: file.to_string(),
             planet: Planet {
                 radius_km,
@@ -434,6 +514,7 @@ impl Job {
             },
             observer_altitude_km,
             wavelengths_nm,
+            band_widths_nm,
             source,
             atmosphere,
             tasks,
@@ -442,7 +523,9 @@ impl Job {
             hash: format!("{:016x}", fnv1a(text.as_bytes())),
             text: text.to_string(),
             dir: dir.to_path_buf(),
-        })
+        };
+        job.check_bands(&ctx)?;
+        Ok(job)
     }
 }
 

@@ -98,6 +98,7 @@ pub(super) enum RawRayleigh {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSpectrum {
     pub(super) wavelengths_nm: Option<Vec<f64>>,
+    pub(super) band_width_nm: Option<OneOrMany>,
 }
 
 #[derive(Debug, Default, Deserialize)]
