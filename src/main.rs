@@ -275,6 +275,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             quiet,
         } => {
             let job = Job::from_file(&job)?;
+            if job.banded() {
+                anyhow::bail!(atmosim::Error::InvalidValue {
+                    file: job.file.clone(),
+                    key: "spectrum.band_width_nm".into(),
+                    value: format!("{:?}", job.band_widths_nm),
+                    reason: "transmittance tables are per wavelength; band-averaged tables are not available".into(),
+                    valid: "0 (or leave it out) for `atmosim transmittance`".into(),
+                });
+            }
             let pool = thread_pool(threads)?;
             let base = out.unwrap_or_else(|| job.render.output_directory.clone());
             let tasks = job.transmittance_tasks();

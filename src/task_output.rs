@@ -75,6 +75,16 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
     put("non_finite_samples", non_finite.to_string());
     put("shards", info.shards.to_string());
     put("shared_wavelengths", layout.shared.to_string());
+    let list = |v: &[f64]| {
+        format!(
+            "[{}]",
+            v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ")
+        )
+    };
+    put("wavelengths_nm", list(&job.wavelengths_nm));
+    // Each channel's full band width (0: one wavelength): a band's values
+    // are the radiance averaged uniformly over [λ − w/2, λ + w/2].
+    put("band_width_nm", list(&job.band_widths_nm));
     put("threads", info.threads.to_string());
     if let Some(secs) = info.seconds {
         put("wall_seconds", format!("{secs:.3}"));

@@ -117,3 +117,87 @@ fn bench_ends_with_the_throughput_line() {
         12
     );
 }
+
+#[test]
+fn bad_band_widths_are_refused_naming_the_key_and_range() {
+    let base = "[atmosphere]\naerosol = \"none\"\n";
+    for (extra, key, hint) in [
+        (
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = -5.0\n",
+            "spectrum.band_width_nm",
+            "twice",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 1200.0\n",
+            "spectrum.band_width_nm",
+            "twice",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\nband_width_nm = [10.0]\n",
+            "spectrum.band_width_nm",
+            "one per",
+        ),
+        // 240 ± 30 nm reaches below the Bodhaine formula's 230 nm.
+        (
+            "[spectrum]\nwavelengths_nm = [240.0]\nband_width_nm = 60.0\n",
+            "spectrum.band_width_nm",
+            "230",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[render]\nforced_collisions = false\n",
+            "render.forced_collisions",
+            "band_width_nm",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[sensor]\ndirections = [[0.0, 0.0]]\nfluxes = true\n",
+            "sensor.fluxes",
+            "band",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[output]\nunits = \"absolute\"\n",
+            "output.units",
+            "normalized",
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("job.toml"), format!("{base}{extra}")).unwrap();
+        let out = atmosim()
+            .current_dir(dir.path())
+            .args(["render", "job.toml"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra}: {err}");
+        assert!(err.contains(key) && err.contains(hint), "{extra}: {err}");
+        assert!(!dir.path().join("out").exists());
+    }
+}
+
+#[test]
+fn band_channels_render_and_are_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [340.0, 380.0]\nband_width_nm = 40.0\n\
+               [sensor]\ndirections = [[0.0, 0.0]]\n[render]\nsamples = 2000\n";
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--out", "out", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let radiance = std::fs::read_to_string(dir.path().join("out/radiance.csv")).unwrap();
+    assert_eq!(radiance.lines().count(), 3, "{radiance}");
+    // No fluxes by default with bands.
+    assert!(!dir.path().join("out/fluxes.csv").exists());
+    let meta = std::fs::read_to_string(dir.path().join("out/task.toml")).unwrap();
+    assert!(meta.contains("band_width_nm = [40.0, 40.0]"), "{meta}");
+    assert!(meta.contains("wavelengths_nm = [340.0, 380.0]"), "{meta}");
+    let t = atmosim()
+        .current_dir(dir.path())
+        .args(["transmittance", "job.toml", "--out", "tr"])
+        .output()
+        .unwrap();
+    assert_eq!(t.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&t.stderr).contains("spectrum.band_width_nm"));
+    assert!(!dir.path().join("tr").exists());
+}

@@ -21,8 +21,8 @@ use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
-use spectrum::{band_error, band_widths};
 use raw::RawJob;
+use spectrum::{band_error, band_widths};
 
 /// Default planet radius (km): the sky model's (libRadtran uses 6370).
 pub const DEFAULT_RADIUS_KM: f64 = 6378.0;
@@ -268,20 +268,41 @@ impl Job {
         }
         let why = "spectrum.band_width_nm > 0 renders bands along shared spectral paths";
         if let Some((key, value)) = self.shared_paths_blocked() {
-            return Err(ctx.invalid(key, value, &format!("{why}, which need the layered medium, forced collisions and spherical or plane-parallel geometry"), "the default, or spectrum.band_width_nm = 0"));
+            return Err(ctx.invalid(
+                key,
+                value,
+                &format!(
+                    "{why}, which need the layered medium, forced collisions and spherical or plane-parallel geometry"
+                ),
+                "the default, or spectrum.band_width_nm = 0",
+            ));
         }
         let r = &self.render;
         let conflicts: [(&str, bool, &str); 4] = [
             ("render.shared_wavelengths", !r.shared_wavelengths, "false"),
-            ("render.sun_sampling", r.settings.sun_sampling == SunSampling::SunAware, "\"sun_aware\""),
+            (
+                "render.sun_sampling",
+                r.settings.sun_sampling == SunSampling::SunAware,
+                "\"sun_aware\"",
+            ),
             ("sensor.fluxes", r.fluxes, "true"),
             ("output.sun", r.output_sun, "true"),
         ];
         if let Some((key, _, value)) = conflicts.iter().find(|c| c.1) {
-            return Err(ctx.invalid(key, value, &format!("{why}; band-averaged {key} is not available"), "leave it out (the default with bands)"));
+            return Err(ctx.invalid(
+                key,
+                value,
+                &format!("{why}; band-averaged {key} is not available"),
+                "leave it out (the default with bands)",
+            ));
         }
         if r.units == Units::Absolute {
-            return Err(ctx.invalid("output.units", "\"absolute\"", &format!("{why}; band averages are of normalised radiance (per unit solar irradiance)"), "\"normalized\""));
+            return Err(ctx.invalid(
+                "output.units",
+                "\"absolute\"",
+                &format!("{why}; band averages are of normalised radiance (per unit solar irradiance)"),
+                "\"normalized\"",
+            ));
         }
         Ok(())
     }
@@ -432,7 +453,8 @@ impl Job {
                 true,
                 &format!("above the ground, at most the profile's top, {profile_top} km"),
             )?;
-            check_wavelengths(&spec, &band_edges_nm).map_err(|e| band_error(&ctx, &wavelengths_nm, &band_widths_nm, e))?;
+            check_wavelengths(&spec, &band_edges_nm)
+                .map_err(|e| band_error(&ctx, &wavelengths_nm, &band_widths_nm, e))?;
             let mut atmospheres = Vec::with_capacity(visibilities.len());
             for v in visibilities {
                 spec.visibility_km = v;
