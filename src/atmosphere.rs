@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::ozone::{CrossSection, OzoneModel};
 use crate::profile::{GasProfile, exp_first_moment, exp_mean};
 use crate::rayleigh::{self, RayleighModel};
-use crate::spectral_terms::{Response, SpectralTerms, Spectrum};
+use crate::spectral_terms::{Part, SpectralTerms, Spectrum};
 use crate::visibility::{GroundExtinction, Visibility};
 use std::sync::Arc;
 
@@ -235,17 +235,9 @@ fn profile_terms(
             .clone()
             .map(|i| explicit_aerosol(layers_spec, profile.levels[i].z_km, profile.levels[i + 1].z_km))
             .collect();
-        let unit = |f: fn(&mut Response)| {
-            let mut r = Response::default();
-            f(&mut r);
-            Spectrum::Constant(r)
-        };
-        terms.push(per_layer.iter().map(|p| p.0).collect(), unit(|r| r.ext = 1.0));
-        terms.push(per_layer.iter().map(|p| p.1).collect(), unit(|r| r.aerosol_sca = 1.0));
-        terms.push(
-            per_layer.iter().map(|p| p.1 * p.2).collect(),
-            unit(|r| r.g_aerosol_sca = 1.0),
-        );
+        terms.push_constant(per_layer.iter().map(|p| p.0).collect(), Part::Extinction);
+        terms.push_constant(per_layer.iter().map(|p| p.1).collect(), Part::AerosolScattering);
+        terms.push_constant(per_layer.iter().map(|p| p.1 * p.2).collect(), Part::GAerosolScattering);
     } else if let Some(a) = aerosol {
         // One term per (component, humidity index) present.
         let parts: Vec<Vec<(usize, usize, f64)>> = layers
@@ -270,47 +262,16 @@ fn profile_terms(
 
 /// The terms of explicit layers: constant responses.
 fn constant_terms(layers: &[LayerOptics]) -> SpectralTerms {
+    let column = |f: fn(&LayerOptics) -> f64| layers.iter().map(f).collect::<Vec<_>>();
     let mut terms = SpectralTerms::default();
-    let fields: [(fn(&LayerOptics) -> f64, Response); 5] = [
-        (
-            LayerOptics::sigma_t,
-            Response {
-                ext: 1.0,
-                ..Response::default()
-            },
-        ),
-        (
-            |o| o.sigma_rayleigh,
-            Response {
-                rayleigh: 1.0,
-                ..Response::default()
-            },
-        ),
-        (
-            |o| o.rayleigh_depolarization * o.sigma_rayleigh,
-            Response {
-                rho_rayleigh: 1.0,
-                ..Response::default()
-            },
-        ),
-        (
-            |o| o.sigma_aerosol_sca,
-            Response {
-                aerosol_sca: 1.0,
-                ..Response::default()
-            },
-        ),
-        (
-            |o| o.aerosol_g * o.sigma_aerosol_sca,
-            Response {
-                g_aerosol_sca: 1.0,
-                ..Response::default()
-            },
-        ),
-    ];
-    for (f, r) in fields {
-        terms.push(layers.iter().map(f).collect(), Spectrum::Constant(r));
-    }
+    terms.push_constant(column(LayerOptics::sigma_t), Part::Extinction);
+    terms.push_constant(column(|o| o.sigma_rayleigh), Part::Rayleigh);
+    terms.push_constant(
+        column(|o| o.rayleigh_depolarization * o.sigma_rayleigh),
+        Part::RhoRayleigh,
+    );
+    terms.push_constant(column(|o| o.sigma_aerosol_sca), Part::AerosolScattering);
+    terms.push_constant(column(|o| o.aerosol_g * o.sigma_aerosol_sca), Part::GAerosolScattering);
     terms
 }
 

@@ -60,6 +60,31 @@ impl Response {
     }
 }
 
+/// One part of the optics, for terms that add to it alone (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    Extinction,
+    Rayleigh,
+    RhoRayleigh,
+    AerosolScattering,
+    GAerosolScattering,
+}
+
+impl Response {
+    /// One unit of `part`, nothing else.
+    pub fn unit(part: Part) -> Response {
+        let mut r = Response::default();
+        *match part {
+            Part::Extinction => &mut r.ext,
+            Part::Rayleigh => &mut r.rayleigh,
+            Part::RhoRayleigh => &mut r.rho_rayleigh,
+            Part::AerosolScattering => &mut r.aerosol_sca,
+            Part::GAerosolScattering => &mut r.g_aerosol_sca,
+        } = 1.0;
+        r
+    }
+}
+
 /// How a term's response depends on λ (closed set).
 #[derive(Debug, Clone)]
 pub enum Spectrum {
@@ -134,6 +159,11 @@ impl SpectralTerms {
         if amount.iter().any(|&a| a != 0.0) {
             self.terms.push(Term { amount, spectrum });
         }
+    }
+
+    /// Adds a wavelength-independent term: `amount` of one `part`.
+    pub fn push_constant(&mut self, amount: Vec<f64>, part: Part) {
+        self.push(amount, Spectrum::Constant(Response::unit(part)));
     }
 
     /// Every term's response at λ, in term order, into `out`.
