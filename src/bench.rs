@@ -5,11 +5,12 @@
 //! zenith 0, 30, 60, 78.46° × azimuth 0, 90, 180), 550 nm.
 //!
 //! `--ratios` adds, each measured in the same run on the same pool, the
-//! throughput issue's ratios: four albedos against one, eleven wavelengths
-//! (320–760 nm) along shared paths against 550 nm alone at the same path
-//! count, the shared paths' relative standard errors at 320 and 760 nm
-//! against dedicated single-wavelength runs scaled to equal time, and the
-//! throughput of the pool against one thread.
+//! throughput issue's ratios: four albedos against one; eleven wavelengths
+//! (320–760 nm by 44) and eleven 40 nm bands from 320 nm along shared
+//! paths against 550 nm alone at the same path count, with the relative
+//! standard errors of the first and last channels against dedicated runs
+//! of those channels alone scaled to equal time; and the throughput of the
+//! pool against one thread.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -72,12 +73,85 @@ pub fn run(samples: u64, out: &mut dyn Write) -> Result<f64> {
     Ok(per_core)
 }
 
-/// The reference job with its spectrum and albedos replaced.
+/// The reference job with its spectrum (and band widths) and albedos
+/// replaced.
 fn variant(wavelengths: &str, albedos: &str) -> Result<Job> {
     let text = REFERENCE_JOB
         .replace("wavelengths_nm = [550.0]", &format!("wavelengths_nm = [{wavelengths}]"))
         .replace("albedo = 0.3", &format!("albedo = {albedos}"));
     Job::parse(&text, "throughput_reference.toml", Path::new("."))
+}
+
+/// A spectrum of the reference case: `[spectrum]` values and a name.
+struct Spectrum {
+    what: &'static str,
+    wavelengths: Vec<f64>,
+    band_width_nm: f64,
+}
+
+impl Spectrum {
+    /// The `wavelengths_nm` value (and `band_width_nm` line) of channels
+    /// `channels`.
+    fn keys(&self, channels: &[f64]) -> String {
+        let list = channels.iter().map(|l| format!("{l:.1}")).collect::<Vec<_>>().join(", ");
+        format!("{list}]\nband_width_nm = [{}", vec![format!("{:.1}", self.band_width_nm); channels.len()].join(", "))
+    }
+
+    fn label(&self, lambda: f64) -> String {
+        if self.band_width_nm > 0.0 {
+            let h = 0.5 * self.band_width_nm;
+            format!("{:.0}–{:.0} nm band", lambda - h, lambda + h)
+        } else {
+            format!("{lambda:.1} nm")
+        }
+    }
+}
+
+/// Renders `spectrum` along shared paths and reports its cost against
+/// `t_one` (550 nm alone, same path count) and the relative standard
+/// errors of its first and last channels against dedicated runs of those
+/// channels alone, scaled to the shared run's time.
+fn shared_ratios(spectrum: &Spectrum, samples: u64, t_one: f64, out: &mut dyn Write) -> Result<()> {
+    let seed = 1;
+    let job = variant(&spectrum.keys(&spectrum.wavelengths), "0.3")?;
+    let (dirs, alt) = (job.render.directions(), job.observer_altitude_km);
+    let shared = job
+        .spectral_scene(&job.tasks[0])
+        .expect("the reference atmosphere is piecewise constant");
+    let (t_shared, tallies) = timed(|| render_directions_spectral(&shared, alt, dirs, samples, seed, 0));
+    writeln!(
+        out,
+        "{} along shared paths: {t_shared:.3} s, cost ratio {:.3} to 550 nm alone",
+        spectrum.what,
+        t_shared / t_one
+    )
+    .map_err(io)?;
+    let last = spectrum.wavelengths.len() - 1;
+    for index in [0, last] {
+        let lambda = spectrum.wavelengths[index];
+        let alone = variant(&spectrum.keys(&[lambda]), "0.3")?;
+        // A band alone still needs shared paths (its wavelengths vary per
+        // path); a wavelength alone is the single-wavelength tracer.
+        let (t, dedicated) = match alone.spectral_scene(&alone.tasks[0]) {
+            Some(scene) => {
+                let (t, v) = timed(|| render_directions_spectral(&scene, alt, dirs, samples, seed, 0));
+                (t, v.into_iter().next().and_then(|a| a.into_iter().next()).unwrap_or_default())
+            }
+            None => timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, 0)),
+        };
+        let dedicated_se = mean_rel_se(&dedicated);
+        let shared_se = mean_rel_se(&tallies[index][0]);
+        // A dedicated run of the shared run's time: its error scales as 1/√time.
+        let equal_time = dedicated_se * (t / t_shared).sqrt();
+        writeln!(
+            out,
+            "{}: shared relative standard error {shared_se:.3e}; dedicated run {t:.3} s, {dedicated_se:.3e}, at the shared run's time {equal_time:.3e}; ratio {:.3}",
+            spectrum.label(lambda),
+            shared_se / equal_time
+        )
+        .map_err(io)?;
+    }
+    Ok(())
 }
 
 /// Mean over directions of the relative standard error of I.
@@ -107,12 +181,6 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     let albedos = variant("550.0", "[0.0, 0.3, 0.6, 1.0]")?;
     let scene4 = albedos.scene(0);
     let (t_four, _) = timed(|| render_directions_all(&scene4, alt, dirs, samples, seed, 0));
-    let names: Vec<String> = (0..11).map(|k| format!("{:.1}", 320.0 + 44.0 * k as f64)).collect();
-    let spectral = variant(&names.join(", "), "0.3")?;
-    let shared = spectral
-        .spectral_scene(&spectral.tasks[0])
-        .expect("the reference atmosphere is piecewise constant");
-    let (t_shared, shared_tallies) = timed(|| render_directions_spectral(&shared, alt, dirs, samples, seed, 0));
     let paths = samples * dirs.len() as u64;
     writeln!(
         out,
@@ -126,26 +194,20 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
         t_four / t_one
     )
     .map_err(io)?;
-    writeln!(
-        out,
-        "eleven wavelengths (320 to 760 nm by 44) along shared paths: {t_shared:.3} s, cost ratio {:.3} to 550 nm alone",
-        t_shared / t_one
-    )
-    .map_err(io)?;
-    for (index, nm) in [(0usize, "320.0"), (10, "760.0")] {
-        let job = variant(nm, "0.3")?;
-        let scene = job.scene(0);
-        let (t, tallies) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
-        let dedicated = mean_rel_se(&tallies);
-        let shared_se = mean_rel_se(&shared_tallies[index][0]);
-        // A dedicated run of the shared run's time: its error scales as 1/√time.
-        let equal_time = dedicated * (t / t_shared).sqrt();
-        writeln!(
-            out,
-            "{nm} nm: shared relative standard error {shared_se:.3e}; dedicated run {t:.3} s, {dedicated:.3e}, at the shared run's time {equal_time:.3e}; ratio {:.3}",
-            shared_se / equal_time
-        )
-        .map_err(io)?;
+    let spectra = [
+        Spectrum {
+            what: "eleven wavelengths (320 to 760 nm by 44)",
+            wavelengths: (0..11).map(|k| 320.0 + 44.0 * k as f64).collect(),
+            band_width_nm: 0.0,
+        },
+        Spectrum {
+            what: "eleven bands of 40 nm from 320 nm",
+            wavelengths: (0..11).map(|k| 340.0 + 40.0 * k as f64).collect(),
+            band_width_nm: 40.0,
+        },
+    ];
+    for spectrum in &spectra {
+        shared_ratios(spectrum, samples, t_one, out)?;
     }
     let (t_serial, _) = serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)));
     writeln!(
