@@ -93,8 +93,15 @@ impl Spectrum {
     /// The `wavelengths_nm` value (and `band_width_nm` line) of channels
     /// `channels`.
     fn keys(&self, channels: &[f64]) -> String {
-        let list = channels.iter().map(|l| format!("{l:.1}")).collect::<Vec<_>>().join(", ");
-        format!("{list}]\nband_width_nm = [{}", vec![format!("{:.1}", self.band_width_nm); channels.len()].join(", "))
+        let list = channels
+            .iter()
+            .map(|l| format!("{l:.1}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        format!(
+            "{list}]\nband_width_nm = [{}",
+            vec![format!("{:.1}", self.band_width_nm); channels.len()].join(", ")
+        )
     }
 
     fn label(&self, lambda: f64) -> String {
@@ -135,7 +142,13 @@ fn shared_ratios(spectrum: &Spectrum, samples: u64, t_one: f64, out: &mut dyn Wr
         let (t, dedicated) = match alone.spectral_scene(&alone.tasks[0]) {
             Some(scene) => {
                 let (t, v) = timed(|| render_directions_spectral(&scene, alt, dirs, samples, seed, 0));
-                (t, v.into_iter().next().and_then(|a| a.into_iter().next()).unwrap_or_default())
+                (
+                    t,
+                    v.into_iter()
+                        .next()
+                        .and_then(|a| a.into_iter().next())
+                        .unwrap_or_default(),
+                )
             }
             None => timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, 0)),
         };
