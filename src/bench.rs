@@ -83,13 +83,13 @@ fn variant(wavelengths: &str, albedos: &str) -> Result<Job> {
 }
 
 /// A spectrum of the reference case: `[spectrum]` values and a name.
-struct Spectrum {
+struct SharedCase {
     what: &'static str,
     wavelengths: Vec<f64>,
     band_width_nm: f64,
 }
 
-impl Spectrum {
+impl SharedCase {
     /// The `wavelengths_nm` value (and `band_width_nm` line) of channels
     /// `channels`.
     fn keys(&self, channels: &[f64]) -> String {
@@ -118,7 +118,7 @@ impl Spectrum {
 /// `t_one` (550 nm alone, same path count) and the relative standard
 /// errors of its first and last channels against dedicated runs of those
 /// channels alone, scaled to the shared run's time.
-fn shared_ratios(spectrum: &Spectrum, samples: u64, t_one: f64, out: &mut dyn Write) -> Result<()> {
+fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn Write) -> Result<()> {
     let seed = 1;
     let job = variant(&spectrum.keys(&spectrum.wavelengths), "0.3")?;
     let (dirs, alt) = (job.render.directions(), job.observer_altitude_km);
@@ -208,12 +208,12 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     )
     .map_err(io)?;
     let spectra = [
-        Spectrum {
+        SharedCase {
             what: "eleven wavelengths (320 to 760 nm by 44)",
             wavelengths: (0..11).map(|k| 320.0 + 44.0 * k as f64).collect(),
             band_width_nm: 0.0,
         },
-        Spectrum {
+        SharedCase {
             what: "eleven bands of 40 nm from 320 nm",
             wavelengths: (0..11).map(|k| 340.0 + 40.0 * k as f64).collect(),
             band_width_nm: 40.0,
