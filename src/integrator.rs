@@ -69,6 +69,13 @@ pub struct Settings {
     pub sun_sampling: SunSampling,
 }
 
+impl Settings {
+    /// Whether a path that has reached scattering order `order` stops.
+    pub fn order_done(&self, order: u32) -> bool {
+        self.max_scattering_order != 0 && order >= self.max_scattering_order
+    }
+}
+
 /// Where on a flight the sun is connected to (closed set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SunSampling {
@@ -140,10 +147,7 @@ pub(crate) const ROULETTE_THRESHOLD: f64 = 0.1;
 impl Scene {
     /// Position of an observer at `altitude_km` (on the z axis).
     pub fn observer_position(&self, altitude_km: f64) -> DVec3 {
-        match self.geometry {
-            Geometry::Spherical { radius_km } => DVec3::new(0.0, 0.0, radius_km + altitude_km),
-            Geometry::PlaneParallel => DVec3::new(0.0, 0.0, altitude_km),
-        }
+        self.geometry.observer_position(altitude_km)
     }
 
     /// One sample of the diffuse Stokes radiance arriving at the observer
@@ -497,12 +501,17 @@ impl Scene {
 
     /// True when some albedo reflects (paths reaching the ground go on).
     fn reflects(&self) -> bool {
-        self.albedos.iter().any(|&a| a > 0.0)
+        reflects(&self.albedos)
     }
 
     fn order_done(&self, order: u32) -> bool {
-        self.settings.max_scattering_order != 0 && order >= self.settings.max_scattering_order
+        self.settings.order_done(order)
     }
+}
+
+/// Whether a ground of these albedos reflects at all.
+pub(crate) fn reflects(albedos: &[f64]) -> bool {
+    albedos.iter().any(|&a| a > 0.0)
 }
 
 /// The albedo a path's throughput carries at a ground reflection: the mean

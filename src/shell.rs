@@ -36,6 +36,14 @@ impl Geometry {
         }
     }
 
+    /// Position of an observer at `altitude_km` (on the z axis).
+    pub fn observer_position(&self, altitude_km: f64) -> DVec3 {
+        match *self {
+            Geometry::Spherical { radius_km } => DVec3::new(0.0, 0.0, radius_km + altitude_km),
+            Geometry::PlaneParallel => DVec3::new(0.0, 0.0, altitude_km),
+        }
+    }
+
     /// Local vertical (unit vector, up) at `p`. At the planet centre, where it
     /// is undefined, `+z` is returned.
     pub fn up(&self, p: DVec3) -> DVec3 {

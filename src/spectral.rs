@@ -44,7 +44,7 @@ use glam::DVec3;
 
 use crate::integrator::{
     INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component,
-    reference_albedo, scattering_frame,
+    reference_albedo, reflects, scattering_frame,
 };
 use crate::medium::{MediumModel, PointCoefficients, density_steps};
 use crate::phase::PhaseMixture;
@@ -381,19 +381,12 @@ impl SpectralScene {
         }
     }
 
-    fn observer_position(&self, altitude_km: f64) -> DVec3 {
-        match self.geometry {
-            Geometry::Spherical { radius_km } => DVec3::new(0.0, 0.0, radius_km + altitude_km),
-            Geometry::PlaneParallel => DVec3::new(0.0, 0.0, altitude_km),
-        }
-    }
-
     fn reflects(&self) -> bool {
-        self.albedos.iter().any(|&a| a > 0.0)
+        reflects(&self.albedos)
     }
 
     fn order_done(&self, order: u32) -> bool {
-        self.settings.max_scattering_order != 0 && order >= self.settings.max_scattering_order
+        self.settings.order_done(order)
     }
 
     /// The coefficients of channel `w` in `layer`.
@@ -432,7 +425,7 @@ impl SpectralScene {
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
             let levels = &self.levels_km;
             path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
-            let origin = self.observer_position(altitude_km);
+            let origin = self.geometry.observer_position(altitude_km);
             let up = self.geometry.up(origin);
             match tracking::layer_at(levels, altitude_km, view.dot(up)) {
                 Some(layer) => self.trace(

@@ -81,19 +81,24 @@ fn bad_render_keys_are_refused_before_anything_is_written() {
         ("[render]\nsamples = 0\n", "render.samples"),
         ("[render]\nmedium = \"lumpy\"\n", "lumpy"),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        let job = dir.path().join("job.toml");
-        std::fs::write(&job, format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}")).unwrap();
-        let out = atmosim()
-            .current_dir(dir.path())
-            .args(["render", "job.toml"])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{key}: {err}");
-        assert!(err.contains(key), "{key} not named: {err}");
-        assert!(!dir.path().join("out").exists());
+        assert_refused(&format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}"), &[key]);
     }
+}
+
+/// `atmosim render` of `job` exits with code 2, its message names every
+/// one of `words`, and nothing is written.
+fn assert_refused(job: &str, words: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{job}: {err}");
+    assert!(words.iter().all(|w| err.contains(w)), "{words:?} not named: {err}");
+    assert!(!dir.path().join("out").exists());
 }
 
 #[test]
@@ -159,17 +164,7 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "normalized",
         ),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("job.toml"), format!("{base}{extra}")).unwrap();
-        let out = atmosim()
-            .current_dir(dir.path())
-            .args(["render", "job.toml"])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{extra}: {err}");
-        assert!(err.contains(key) && err.contains(hint), "{extra}: {err}");
-        assert!(!dir.path().join("out").exists());
+        assert_refused(&format!("{base}{extra}"), &[key, hint]);
     }
 }
 
