@@ -225,7 +225,8 @@ fn kill_9_then_resume_equals_an_uninterrupted_run() {
     let d = dir.path();
     job(d, "job.toml", &format!("{DIRECTIONS}120000\n"));
     run_ok(d, &["render", "job.toml", "--out", "whole", "-q"]);
-    // Checkpoints every 60 ms; kill -9 once the first exists.
+    // Checkpoints every 60 ms; kill -9 once the first exists. One thread
+    // keeps the first task running well past that on any machine.
     let mut child = spawn(
         d,
         &[
@@ -235,6 +236,8 @@ fn kill_9_then_resume_equals_an_uninterrupted_run() {
             "killed",
             "--checkpoint-every",
             "0.001",
+            "--threads",
+            "1",
             "-q",
         ],
     );
@@ -268,11 +271,25 @@ fn sigterm_writes_a_checkpoint_and_resume_completes_exactly() {
         d,
         "img.toml",
         "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n\
-         [sensor]\ntype = \"fisheye\"\nresolution = 24\n[render]\nsamples = 4000\n",
+         [sensor]\ntype = \"fisheye\"\nresolution = 24\n[render]\nsamples = 8000\n",
     );
-    // No periodic checkpoints: the one found must come from SIGTERM.
-    let mut child = spawn(d, &["render", "img.toml", "--out", "sky", "--checkpoint-every", "0"]);
-    std::thread::sleep(Duration::from_millis(1500));
+    // No periodic checkpoints: the one found must come from SIGTERM. One
+    // thread, so the render lasts about 7 s on any machine with cores to
+    // spare (CI's two included) and SIGTERM after 1 s lands mid-render.
+    let mut child = spawn(
+        d,
+        &[
+            "render",
+            "img.toml",
+            "--out",
+            "sky",
+            "--checkpoint-every",
+            "0",
+            "--threads",
+            "1",
+        ],
+    );
+    std::thread::sleep(Duration::from_millis(1000));
     assert!(
         child.try_wait().unwrap().is_none(),
         "the render ended before SIGTERM: make it longer"
