@@ -507,11 +507,6 @@ impl ShellExit {
 /// has it; the order of operations, hence the result, is the same either way).
 pub fn weighted_half_chords(radius_km: f64, levels_km: &[f64], weights: &[f64], h: f64) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F (checked just above).
-        return unsafe { weighted_half_chords_avx512(radius_km, levels_km, weights, h) };
-    }
-    #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
         return unsafe { weighted_half_chords_avx2(radius_km, levels_km, weights, h) };
@@ -525,12 +520,6 @@ fn weighted_half_chords_avx2(radius_km: f64, levels_km: &[f64], weights: &[f64],
     weighted_half_chords_portable(radius_km, levels_km, weights, h)
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn weighted_half_chords_avx512(radius_km: f64, levels_km: &[f64], weights: &[f64], h: f64) -> f64 {
-    weighted_half_chords_portable(radius_km, levels_km, weights, h)
-}
-
 #[inline(always)]
 fn weighted_half_chords_portable(radius_km: f64, levels_km: &[f64], weights: &[f64], h: f64) -> f64 {
     let term = |z: f64, w: f64| {
@@ -539,28 +528,18 @@ fn weighted_half_chords_portable(radius_km: f64, levels_km: &[f64], weights: &[f
     };
     let n = levels_km.len().min(weights.len());
     let (levels_km, weights) = (&levels_km[..n], &weights[..n]);
-    let mut acc = [0.0; LANES];
-    let mut chunks = levels_km.chunks_exact(LANES).zip(weights.chunks_exact(LANES));
+    let mut acc = [0.0; 4];
+    let mut chunks = levels_km.chunks_exact(4).zip(weights.chunks_exact(4));
     for (z, w) in &mut chunks {
-        for j in 0..LANES {
+        for j in 0..4 {
             acc[j] += term(z[j], w[j]);
         }
     }
-    let tail = n - n % LANES;
+    let tail = n - n % 4;
     for j in tail..n {
         acc[j - tail] += term(levels_km[j], weights[j]);
     }
-    lane_sum(acc)
-}
-
-/// Independent partial sums of the vectorised kernels: one AVX-512
-/// register's worth (two AVX2 ones), the same on every CPU.
-const LANES: usize = 8;
-
-/// The partial sums added pairwise, in a fixed order.
-#[inline(always)]
-fn lane_sum(a: [f64; LANES]) -> f64 {
-    ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]))
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
 /// Σ a_i·b_i in four independent partial sums (AVX2 where the CPU has it;
