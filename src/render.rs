@@ -67,6 +67,15 @@ impl Tally {
         self.non_finite += o.non_finite;
     }
 
+    /// The tally of the samples times `k` (a change of units).
+    pub fn scaled(&self, k: f64) -> Tally {
+        Tally {
+            sum: self.sum.map(|s| s * k),
+            sum_sq: self.sum_sq.map(|s| s * k * k),
+            ..*self
+        }
+    }
+
     /// Mean per component (0 without samples).
     pub fn mean(&self) -> [f64; 4] {
         if self.samples == 0 {

@@ -13,7 +13,6 @@ use crate::job::{AtmosphereSource, Job, Task, Units};
 use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
 use crate::shard::Shard;
-use crate::solar::SolarSpectrum;
 use crate::unit::{self, Control, Layout};
 
 /// The file an image task writes its Stokes images to.
@@ -72,11 +71,7 @@ pub fn is_complete(dir: &Path, job: &Job) -> bool {
 /// Writes the task's files into `dir`; returns the preview exposure used.
 pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyImage) -> Result<Option<f64>> {
     let spec = &job.render;
-    let solar = SolarSpectrum::kurucz()?;
-    let scale = |lambda: f64| match spec.units {
-        Units::Normalized => 1.0,
-        Units::Absolute => solar.irradiance(lambda).unwrap_or(0.0),
-    };
+    let scale = |lambda: f64| job.unit_scale(lambda);
     let mut channels = Vec::new();
     for layer in &image.layers {
         let name = layer_name(layer.wavelength_nm, layer.albedo);
@@ -115,8 +110,15 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
     let wavelengths: Vec<f64> = first.iter().map(|l| l.wavelength_nm).collect();
     let spectra: Vec<&[f64]> = first.iter().map(|l| l.mean[0].as_slice()).collect();
     let (rgb, exposure) = srgb_preview(&wavelengths, &spectra, spec.exposure);
+    // The layers hold the tracer's radiance: per unit E0, or absolute
+    // where the tracer weighted by E0 (bands, see `Job::unit_scale`).
+    let units = if job.tracer_weights_by_source() {
+        "absolute radiance (W m-2 sr-1 nm-1)"
+    } else {
+        "radiance per unit E0"
+    };
     let note = format!(
-        "sRGB of CIE 1931 XYZ from the I images (albedo {}), radiance per unit E0 × exposure {exposure:.6e}",
+        "sRGB of CIE 1931 XYZ from the I images (albedo {}), {units} × exposure {exposure:.6e}",
         spec.albedos[0]
     );
     write_png(

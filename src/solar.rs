@@ -29,6 +29,14 @@ impl SolarSpectrum {
         data::interp_linear(&self.wavelengths_nm, &self.irradiance, lambda_nm)
     }
 
+    /// The tabulated wavelengths (nm), first and last.
+    pub fn range_nm(&self) -> (f64, f64) {
+        (
+            self.wavelengths_nm[0],
+            self.wavelengths_nm[self.wavelengths_nm.len() - 1],
+        )
+    }
+
     /// Mean irradiance over [λ0, λ1] (trapezoidal on the 1 nm grid plus the
     /// interpolated end points).
     pub fn band_mean(&self, lo_nm: f64, hi_nm: f64) -> Option<f64> {

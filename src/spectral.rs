@@ -27,7 +27,11 @@
 //! own wavelength inside each band, stratified over the estimate's samples
 //! (`Sampler::stratified`), and estimates the band-averaged radiance. The
 //! optics at any wavelength come from the atmosphere's terms
-//! (`spectral_terms`): per path, one response per term and channel.
+//! (`spectral_terms`): per path, one response per term and channel. With
+//! a source spectrum (`with_source`, absolute units) each channel's
+//! radiance is weighted by the source at the wavelength the path drew, so
+//! a band estimates the band average of E0(λ)·L(λ), not the product of
+//! two averages.
 //!
 //! Optical depths along a ray are computed once per extinction basis
 //! vector (the atmosphere's extinction terms, or the channels' own σ_t
@@ -39,6 +43,7 @@
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
 use std::ops::ControlFlow;
+use std::sync::Arc;
 
 use glam::DVec3;
 
@@ -50,6 +55,7 @@ use crate::medium::{MediumModel, PointCoefficients, density_steps};
 use crate::phase::PhaseMixture;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
+use crate::solar::SolarSpectrum;
 use crate::spectral_terms::{Response, SpectralTerms};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
 use crate::sun::Sun;
@@ -72,12 +78,14 @@ impl Channel {
 }
 
 /// What the channels' optics are on one path: each channel's term
-/// responses (`[channel·terms + term]`) and extinction weights on the
-/// basis (`[channel·basis + b]`).
+/// responses (`[channel·terms + term]`), extinction weights on the
+/// basis (`[channel·basis + b]`) and source factors (E0 at the channel's
+/// wavelength, or 1 without a source spectrum).
 #[derive(Debug, Clone, Default)]
 struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
+    source: Vec<f64>,
 }
 
 /// The basis optical depths are computed on.
@@ -109,6 +117,9 @@ pub struct SpectralScene {
     /// The spectra of monochromatic channels (all paths share them); for
     /// bands, each path has its own.
     fixed: Option<ChannelSpectra>,
+    /// The extraterrestrial irradiance radiances are weighted by (absolute
+    /// units); `None`: per unit E0.
+    source: Option<Arc<SolarSpectrum>>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -295,16 +306,44 @@ impl SpectralScene {
             basis_sigma,
             basis_steps,
             fixed: None,
+            source: None,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
                 responses: centre,
                 weights: vec![0.0; n * b],
+                source: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
+            scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
             scene.fixed = Some(fixed);
         }
         scene
+    }
+
+    /// The scene with radiances weighted by `source` at each path's
+    /// wavelengths: absolute units, band averages of E0(λ)·L(λ). Every
+    /// channel's wavelengths must lie inside the spectrum (the job checks
+    /// it); outside, the source counts as 0.
+    pub fn with_source(mut self, source: Arc<SolarSpectrum>) -> SpectralScene {
+        self.source = Some(source);
+        if let Some(mut fixed) = self.fixed.take() {
+            self.refresh_source(&mut fixed, |w| self.channels[w].lambda_nm);
+            self.fixed = Some(fixed);
+        }
+        self
+    }
+
+    /// Fills the spectra's source factors for the channels' wavelengths
+    /// `lambda(channel)`.
+    fn refresh_source(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
+        spectra.source.clear();
+        spectra
+            .source
+            .extend((0..self.channels.len()).map(|w| match &self.source {
+                Some(solar) => solar.irradiance(lambda(w)).unwrap_or(0.0),
+                None => 1.0,
+            }));
     }
 
     /// Fills the spectra's extinction weights from its responses.
@@ -334,12 +373,13 @@ impl SpectralScene {
     fn draw_spectra(&self, spectra: &mut ChannelSpectra, sampler: &Sampler) {
         let t = self.terms.terms.len();
         spectra.responses.resize(self.channels.len() * t, Response::default());
-        for (w, c) in self.channels.iter().enumerate() {
-            let lambda = c.wavelength(sampler.stratified(w as u64));
+        let lambda = |w: usize| self.channels[w].wavelength(sampler.stratified(w as u64));
+        for w in 0..self.channels.len() {
             self.terms
-                .responses_into(lambda, &mut spectra.responses[w * t..(w + 1) * t]);
+                .responses_into(lambda(w), &mut spectra.responses[w * t..(w + 1) * t]);
         }
         self.refresh_weights(spectra);
+        self.refresh_source(spectra, lambda);
     }
 
     /// The number of channels.
@@ -445,8 +485,16 @@ impl SpectralScene {
                     }
                 }
             }
+            let mut values = path.radiance.clone();
+            if self.source.is_some() {
+                for (w, per_albedo) in values.chunks_mut(albedos).enumerate() {
+                    for s in per_albedo {
+                        *s = *s * spectra.source[w];
+                    }
+                }
+            }
             SpectralRadiances {
-                values: path.radiance.clone(),
+                values,
                 wavelengths: n,
                 albedos,
             }

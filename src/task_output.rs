@@ -85,6 +85,15 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
     // Each channel's full band width (0: one wavelength): a band's values
     // are the radiance averaged uniformly over [λ − w/2, λ + w/2].
     put("band_width_nm", list(&job.band_widths_nm));
+    // The units of radiance.csv, fluxes.csv and the image.
+    put(
+        "units",
+        quote(if job.solar.is_some() {
+            "absolute: W m-2 sr-1 nm-1 (fluxes W m-2 nm-1), Kurucz 1992 extraterrestrial irradiance"
+        } else {
+            "normalized: per unit extraterrestrial solar irradiance (E0 = 1)"
+        }),
+    );
     put("threads", info.threads.to_string());
     if let Some(secs) = info.seconds {
         put("wall_seconds", format!("{secs:.3}"));

@@ -511,16 +511,17 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     }
     let mut result = RenderResult::default();
     for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+        let k = job.unit_scale(wavelength_nm);
         let e_dir = spec
             .fluxes
-            .then(|| render::direct_horizontal(&job.scene_for(task, w), task.observer_altitude_km));
+            .then(|| k * render::direct_horizontal(&job.scene_for(task, w), task.observer_altitude_km));
         for (a, &albedo) in spec.albedos.iter().enumerate() {
             for (direction, tally) in directions.iter().zip(&radiance[w][a]) {
                 result.radiance.push(RadianceRow {
                     wavelength_nm,
                     albedo,
                     direction: *direction,
-                    tally: *tally,
+                    tally: tally.scaled(k),
                 });
             }
             if let Some(e_dir) = e_dir {
@@ -528,7 +529,7 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
                     wavelength_nm,
                     albedo,
                     altitude_km: task.observer_altitude_km,
-                    fluxes: Fluxes::new(e_dir, &flux[w][0][a], &flux[w][1][a]),
+                    fluxes: Fluxes::new(e_dir, &flux[w][0][a].scaled(k), &flux[w][1][a].scaled(k)),
                 });
             }
         }

@@ -158,10 +158,17 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "sensor.fluxes",
             "band",
         ),
+        // Absolute units need the Kurucz irradiance (250–10000 nm) over
+        // every channel, band edges included.
         (
-            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[output]\nunits = \"absolute\"\n",
-            "output.units",
-            "normalized",
+            "[spectrum]\nwavelengths_nm = [240.0]\n[output]\nunits = \"absolute\"\n",
+            "spectrum.wavelengths_nm",
+            "250 to 10000 nm",
+        ),
+        (
+            "[spectrum]\nwavelengths_nm = [270.0]\nband_width_nm = 50.0\n[output]\nunits = \"absolute\"\n",
+            "spectrum.band_width_nm",
+            "245 to 295 nm leaves",
         ),
     ] {
         assert_refused(&format!("{base}{extra}"), &[key, hint]);
@@ -195,4 +202,54 @@ fn band_channels_render_and_are_recorded() {
     assert_eq!(t.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&t.stderr).contains("spectrum.band_width_nm"));
     assert!(!dir.path().join("tr").exists());
+}
+
+/// The radiance.csv and fluxes.csv of `job` rendered into `out` under `dir`.
+fn render_csvs(dir: &std::path::Path, job: &str, out: &str) -> (String, String, String) {
+    std::fs::write(dir.join(format!("{out}.toml")), job).unwrap();
+    let o = atmosim()
+        .current_dir(dir)
+        .args(["render", &format!("{out}.toml"), "--out", out, "-q"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = |f: &str| std::fs::read_to_string(dir.join(out).join(f)).unwrap_or_default();
+    (read("radiance.csv"), read("fluxes.csv"), read("task.toml"))
+}
+
+/// The numbers of a CSV's data lines.
+fn numbers(csv: &str) -> Vec<Vec<f64>> {
+    csv.lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect()
+}
+
+#[test]
+fn absolute_units_scale_the_directions_outputs_by_the_irradiance() {
+    // The same paths in both units: absolute = normalised × E0(λ), E0 from
+    // the Kurucz table (1.86 W m-2 nm-1 at 550 nm, 1.95 at 500).
+    let dir = tempfile::tempdir().unwrap();
+    let job = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [500.0, 550.0]\n\
+               [sensor]\ndirections = [[0.0, 0.0], [60.0, 90.0]]\n[render]\nsamples = 2000\n";
+    let (rn, fnorm, meta_n) = render_csvs(dir.path(), job, "norm");
+    let (ra, fabs, meta_a) = render_csvs(dir.path(), &format!("{job}[output]\nunits = \"absolute\"\n"), "abs");
+    assert!(meta_n.contains("units = \"normalized"), "{meta_n}");
+    assert!(meta_a.contains("units = \"absolute: W m-2 sr-1 nm-1"), "{meta_a}");
+    let solar = atmosim::solar::SolarSpectrum::kurucz().unwrap();
+    // radiance.csv: I..V_se (columns 4–11) scale; fluxes.csv: every column
+    // after wavelength, albedo and altitude.
+    for (n, a, cols) in [
+        (numbers(&rn), numbers(&ra), 4..12),
+        (numbers(&fnorm), numbers(&fabs), 3..8),
+    ] {
+        assert!(!n.is_empty() && n.len() == a.len());
+        for (x, y) in n.iter().zip(&a) {
+            let e0 = solar.irradiance(x[0]).unwrap();
+            for c in cols.clone() {
+                // Standard errors are printed to 5 digits: 2e-4 relative.
+                assert!((y[c] - x[c] * e0).abs() <= 2e-4 * (x[c] * e0).abs(), "{x:?} vs {y:?}");
+            }
+        }
+    }
 }

@@ -8,6 +8,7 @@
 mod common;
 
 use atmosim::render::{Direction, render_directions_all, render_directions_spectral};
+use atmosim::solar::SolarSpectrum;
 use common::{Comparison, job};
 
 /// Six-point Gauss–Legendre nodes and weights on [−1, 1].
@@ -133,4 +134,100 @@ fn a_wide_band_differs_from_its_centre_wavelength() {
     let (x, y) = (&b[0][0][0], &c[0][0]);
     let z = (x.mean()[0] - y.mean()[0]) / x.standard_error()[0].hypot(y.standard_error()[0]);
     assert!(z.abs() > 5.0, "band {} vs centre {}: z = {z}", x.mean()[0], y.mean()[0]);
+}
+
+/// (1/w)·∫ E0(λ)·ℓ_i(λ) dλ over the band, ℓ_i the Lagrange basis
+/// polynomials of the nodes: the weights that turn the radiances at the
+/// nodes into the band average of E0·L, with L the polynomial through
+/// them (trapezoids of 0.01 nm on a spectrum linear between 1 nm nodes).
+fn source_weights(solar: &SolarSpectrum, nodes: &[f64], lo: f64, hi: f64) -> Vec<f64> {
+    let steps = ((hi - lo) / 0.01).round() as usize;
+    let h = (hi - lo) / steps as f64;
+    (0..nodes.len())
+        .map(|i| {
+            let f = |x: f64| {
+                let basis: f64 = (0..nodes.len())
+                    .filter(|&j| j != i)
+                    .map(|j| (x - nodes[j]) / (nodes[i] - nodes[j]))
+                    .product();
+                solar.irradiance(x).unwrap() * basis
+            };
+            let inner: f64 = (1..steps).map(|k| f(lo + k as f64 * h)).sum();
+            (0.5 * (f(lo) + f(hi)) + inner) * h / (hi - lo)
+        })
+        .collect()
+}
+
+#[test]
+fn absolute_bands_average_the_source_weighted_radiance() {
+    // 370–430 nm: the Ca II H and K lines and the rise of E0 toward 430 nm
+    // against Rayleigh's fall, so the band average of E0·L is well below
+    // mean(E0)·mean(L); beside it a monochromatic channel, E0(520)·L(520).
+    let base = "[atmosphere]\nozone = \"none\"\naerosol = \"none\"\n[sun]\nelevation_deg = 25.0\n\
+                [observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n";
+    let (centre, width) = (400.0, 60.0);
+    let banded = job(&format!(
+        "{base}[spectrum]\nwavelengths_nm = [{centre}, 520.0]\nband_width_nm = [{width}, 0.0]\n[output]\nunits = \"absolute\"\n"
+    ));
+    let solar = banded.solar.clone().expect("absolute units load the spectrum");
+    let samples = common::samples(30_000);
+    let dirs = directions();
+    let h = banded.observer_altitude_km;
+    let shared = render_directions_spectral(
+        &banded.spectral_scene(&banded.tasks[0]).unwrap(),
+        h,
+        &dirs,
+        samples,
+        5,
+        0,
+    );
+    let nodes: Vec<f64> = GAUSS_6.iter().map(|&(x, _)| centre + 0.5 * width * x).collect();
+    let (lo, hi) = (centre - 0.5 * width, centre + 0.5 * width);
+    let band = (source_weights(&solar, &nodes, lo, hi), nodes.clone());
+    let mono = (vec![solar.irradiance(520.0).unwrap()], vec![520.0]);
+    let mut cmp = Comparison::default();
+    let mut naive_z = 0.0;
+    for (w, (weights, nodes)) in [band, mono].iter().enumerate() {
+        let list = nodes.iter().map(|n| format!("{n}")).collect::<Vec<_>>().join(", ");
+        let single = job(&format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n"));
+        let renders: Vec<_> = (0..nodes.len())
+            .map(|k| render_directions_all(&single.scene(k), h, &dirs, samples, 200 + k as u64, 0))
+            .collect();
+        for a in 0..2 {
+            for d in 0..dirs.len() {
+                for s in 0..3 {
+                    let (mut mean, mut var) = (0.0, 0.0);
+                    for (k, c) in weights.iter().enumerate() {
+                        let t = &renders[k][a][d];
+                        mean += c * t.mean()[s];
+                        var += (c * t.standard_error()[s]).powi(2);
+                    }
+                    let x = &shared[w][a][d];
+                    cmp.add(
+                        || format!("channel {w}, albedo {a}, direction {d}, Stokes {s}"),
+                        x.mean()[s],
+                        x.standard_error()[s],
+                        mean,
+                        var.sqrt(),
+                    );
+                    if w == 0 && a == 0 && d == 0 && s == 0 {
+                        // The product of the band means, from the same renders.
+                        let (mut l, mut l_var) = (0.0, 0.0);
+                        for (k, &(_, g)) in GAUSS_6.iter().enumerate() {
+                            l += 0.5 * g * renders[k][a][d].mean()[0];
+                            l_var += (0.5 * g * renders[k][a][d].standard_error()[0]).powi(2);
+                        }
+                        let e0 = solar.band_mean(lo, hi).unwrap();
+                        naive_z = (x.mean()[0] - e0 * l) / x.standard_error()[0].hypot(e0 * l_var.sqrt());
+                    }
+                }
+            }
+        }
+    }
+    println!("{}", cmp.assert_no_outlier("absolute bands vs E0-weighted quadrature"));
+    println!("zenith band against mean(E0)·mean(L): z = {naive_z:.1}");
+    assert!(
+        naive_z < -5.0,
+        "the zenith band average should lie well below mean(E0)·mean(L): z = {naive_z}"
+    );
 }

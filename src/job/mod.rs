@@ -5,6 +5,7 @@
 //! range; TOML syntax and schema errors carry TOML's line and column.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use serde::Deserialize;
 
@@ -16,6 +17,7 @@ use crate::medium::{Medium, MediumModel};
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
+use crate::solar::SolarSpectrum;
 use crate::spectral::{Channel, SpectralScene};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
@@ -91,6 +93,9 @@ pub struct Job {
     pub tasks: Vec<Task>,
     pub render: RenderSpec,
     pub transmittance: TransmittanceSpec,
+    /// The extraterrestrial irradiance of absolute units (`None` for
+    /// normalised ones).
+    pub solar: Option<Arc<SolarSpectrum>>,
     /// FNV-1a hash of the job text (hex), identifying the job in outputs.
     pub hash: String,
     /// The job text and the directory its relative paths resolve from:
@@ -249,7 +254,7 @@ impl Job {
         if !wanted || self.shared_paths_blocked().is_some() {
             return None;
         }
-        Some(SpectralScene::new(
+        let scene = SpectralScene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
             task.atmosphere.terms.clone(),
@@ -257,11 +262,58 @@ impl Job {
             task.sun,
             self.render.albedos.clone(),
             self.render.settings,
-        ))
+        );
+        Some(match &self.solar {
+            Some(solar) if self.tracer_weights_by_source() => scene.with_source(solar.clone()),
+            _ => scene,
+        })
+    }
+
+    /// Whether the tracer itself weights each path by E0 at the
+    /// wavelengths it drew: bands in absolute units (the band average of
+    /// E0·L is not the product of the averages).
+    pub fn tracer_weights_by_source(&self) -> bool {
+        self.solar.is_some() && self.banded()
+    }
+
+    /// The factor from the tracer's radiance at `lambda_nm` to the output
+    /// units: E0(λ) for absolute units, unless the tracer weighted by it
+    /// already; 1 for normalised units.
+    pub fn unit_scale(&self, lambda_nm: f64) -> f64 {
+        match &self.solar {
+            Some(solar) if !self.tracer_weights_by_source() => solar.irradiance(lambda_nm).unwrap_or(0.0),
+            _ => 1.0,
+        }
+    }
+
+    /// Checks that absolute units have the irradiance at every channel's
+    /// wavelengths (band edges included).
+    fn check_source(&self, ctx: &Ctx) -> Result<()> {
+        let Some(solar) = &self.solar else { return Ok(()) };
+        let (lo, hi) = solar.range_nm();
+        for (&l, &w) in self.wavelengths_nm.iter().zip(&self.band_widths_nm) {
+            let (a, b) = (l - 0.5 * w, l + 0.5 * w);
+            if a < lo || b > hi {
+                let (key, value) = if w > 0.0 {
+                    ("spectrum.band_width_nm", w.to_string())
+                } else {
+                    ("spectrum.wavelengths_nm", l.to_string())
+                };
+                return Err(ctx.invalid(
+                    key,
+                    value,
+                    &format!(
+                        "output.units = \"absolute\" weights by the Kurucz extraterrestrial irradiance, and {a} to {b} nm leaves its table"
+                    ),
+                    &format!("channels inside {lo} to {hi} nm, or output.units = \"normalized\""),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Checks that a job with bands can render them: bands need shared
-    /// paths and their outputs are band averages of normalised radiance.
+    /// paths, and their outputs are band averages of radiance only.
     fn check_bands(&self, ctx: &Ctx) -> Result<()> {
         if !self.banded() {
             return Ok(());
@@ -294,14 +346,6 @@ impl Job {
                 value,
                 &format!("{why}; band-averaged {key} is not available"),
                 "leave it out (the default with bands)",
-            ));
-        }
-        if r.units == Units::Absolute {
-            return Err(ctx.invalid(
-                "output.units",
-                "\"absolute\"",
-                &format!("{why}; band averages are of normalised radiance (per unit solar irradiance)"),
-                "\"normalized\"",
             ));
         }
         Ok(())
@@ -520,6 +564,10 @@ impl Job {
         let atmosphere = tasks[0].atmosphere.clone();
         let observer_altitude_km = tasks[0].observer_altitude_km;
 
+        let solar = match render.units {
+            Units::Absolute => Some(Arc::new(SolarSpectrum::kurucz()?)),
+            Units::Normalized => None,
+        };
         let transmittance = transmittance::resolve(
             &ctx,
             raw.transmittance,
@@ -542,11 +590,13 @@ impl Job {
             tasks,
             render,
             transmittance,
+            solar,
             hash: format!("{:016x}", fnv1a(text.as_bytes())),
             text: text.to_string(),
             dir: dir.to_path_buf(),
         };
         job.check_bands(&ctx)?;
+        job.check_source(&ctx)?;
         Ok(job)
     }
 }
