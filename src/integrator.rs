@@ -109,7 +109,10 @@ pub struct Scene {
     pub sun: Sun,
     /// Ground albedos, all estimated from the same paths (at most
     /// [`MAX_ALBEDOS`]): a path with k ground reflections scores a^k times
-    /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly.
+    /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly. Flights
+    /// toward the ground are forced only when no albedo reflects, so an
+    /// albedo 0 in a list with reflecting ones is noisier than alone
+    /// (README, "albedo").
     pub albedos: Vec<f64>,
     pub settings: Settings,
     /// Approximate depth toward the sun: enables sun-aware next-event
