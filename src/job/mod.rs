@@ -294,16 +294,20 @@ impl Job {
         for (&l, &w) in self.wavelengths_nm.iter().zip(&self.band_widths_nm) {
             let (a, b) = (l - 0.5 * w, l + 0.5 * w);
             if a < lo || b > hi {
-                let (key, value) = if w > 0.0 {
-                    ("spectrum.band_width_nm", w.to_string())
+                let (key, value, what) = if w > 0.0 {
+                    (
+                        "spectrum.band_width_nm",
+                        w.to_string(),
+                        format!("the band {a} to {b} nm leaves"),
+                    )
                 } else {
-                    ("spectrum.wavelengths_nm", l.to_string())
+                    ("spectrum.wavelengths_nm", l.to_string(), format!("{l} nm lies outside"))
                 };
                 return Err(ctx.invalid(
                     key,
                     value,
                     &format!(
-                        "output.units = \"absolute\" weights by the Kurucz extraterrestrial irradiance, and {a} to {b} nm leaves its table"
+                        "output.units = \"absolute\" weights by the Kurucz extraterrestrial irradiance, and {what} its table"
                     ),
                     &format!("channels inside {lo} to {hi} nm, or output.units = \"normalized\""),
                 ));
