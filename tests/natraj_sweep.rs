@@ -29,6 +29,12 @@ use common::{Comparison, job, layers_toml, samples, table};
 
 const HEADER: &str = "tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,samples,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref";
 
+/// One CSV line of a row, every value exactly (`{:?}` round-trips).
+fn csv_line(row: &[f64]) -> String {
+    let cells: Vec<String> = row.iter().map(|v| format!("{v:?}")).collect();
+    format!("{}\n", cells.join(","))
+}
+
 /// The rows of the sweep's CSV so far (a line cut short by a kill is
 /// dropped), refusing a file of another sample count.
 fn done_rows(path: &PathBuf, n: u64) -> Vec<Vec<f64>> {
@@ -90,9 +96,7 @@ fn natraj_2009_full_sweep() {
     // Rewrite the file without a cut line, then append render by render.
     let mut text = format!("{HEADER}\n");
     for r in &done {
-        let cells: Vec<String> = r.iter().map(|v| format!("{v:?}")).collect();
-        text.push_str(&cells.join(","));
-        text.push('\n');
+        text.push_str(&csv_line(r));
     }
     std::fs::write(&csv, text).unwrap();
     let mut file = std::fs::OpenOptions::new().append(true).open(&csv).unwrap();
@@ -160,9 +164,7 @@ fn natraj_2009_full_sweep() {
                     se[2],
                     reference[8],
                 ];
-                let cells: Vec<String> = row.iter().map(|v| format!("{v:?}")).collect();
-                lines.push_str(&cells.join(","));
-                lines.push('\n');
+                lines.push_str(&csv_line(&row));
                 new_rows.push(row);
             }
         }

@@ -7,7 +7,7 @@
 
 mod common;
 
-use atmosim::render::{Direction, render_directions_all, render_directions_spectral};
+use atmosim::render::{Direction, Tally, render_directions_all, render_directions_spectral};
 use atmosim::solar::SolarSpectrum;
 use common::{Comparison, job};
 
@@ -20,6 +20,18 @@ const GAUSS_6: [(f64, f64); 6] = [
     (0.661_209_386_466_265, 0.360_761_573_048_139),
     (0.932_469_514_203_152, 0.171_324_492_379_170),
 ];
+
+/// Σ_k c_k·L_k over independent renders `[k][albedo][direction]` of one
+/// Stokes component, with its standard error √(Σ c_k²·se_k²).
+fn combine(renders: &[Vec<Vec<Tally>>], weights: &[f64], a: usize, d: usize, s: usize) -> (f64, f64) {
+    let (mut mean, mut var) = (0.0, 0.0);
+    for (r, c) in renders.iter().zip(weights) {
+        let t = &r[a][d];
+        mean += c * t.mean()[s];
+        var += (c * t.standard_error()[s]).powi(2);
+    }
+    (mean, var.sqrt())
+}
 
 fn directions() -> Vec<Direction> {
     [(0.0, 0.0), (60.0, 0.0), (80.0, 150.0), (120.0, 30.0)]
@@ -85,16 +97,11 @@ fn band_channels_estimate_the_band_averaged_radiance() {
             let renders: Vec<_> = (0..nodes.len())
                 .map(|k| render_directions_all(&mono.scene(k), h, &dirs, samples, 100 + k as u64, 0))
                 .collect();
-            for a in 0..2 {
-                for d in 0..dirs.len() {
+            for (a, per_albedo) in shared[w].iter().enumerate() {
+                for (d, x) in per_albedo.iter().enumerate() {
                     for s in 0..3 {
-                        let (mut mean, mut var) = (0.0, 0.0);
-                        for (k, &(_, g)) in nodes.iter().enumerate() {
-                            let t = &renders[k][a][d];
-                            mean += g * t.mean()[s];
-                            var += (g * t.standard_error()[s]).powi(2);
-                        }
-                        let x = &shared[w][a][d];
+                        let weights: Vec<f64> = nodes.iter().map(|n| n.1).collect();
+                        let (mean, se) = combine(&renders, &weights, a, d, s);
                         cmp.add(
                             || {
                                 format!(
@@ -105,7 +112,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
                             x.mean()[s],
                             x.standard_error()[s],
                             mean,
-                            var.sqrt(),
+                            se,
                         );
                     }
                 }
@@ -193,32 +200,23 @@ fn absolute_bands_average_the_source_weighted_radiance() {
         let renders: Vec<_> = (0..nodes.len())
             .map(|k| render_directions_all(&single.scene(k), h, &dirs, samples, 200 + k as u64, 0))
             .collect();
-        for a in 0..2 {
-            for d in 0..dirs.len() {
+        for (a, per_albedo) in shared[w].iter().enumerate() {
+            for (d, x) in per_albedo.iter().enumerate() {
                 for s in 0..3 {
-                    let (mut mean, mut var) = (0.0, 0.0);
-                    for (k, c) in weights.iter().enumerate() {
-                        let t = &renders[k][a][d];
-                        mean += c * t.mean()[s];
-                        var += (c * t.standard_error()[s]).powi(2);
-                    }
-                    let x = &shared[w][a][d];
+                    let (mean, se) = combine(&renders, weights, a, d, s);
                     cmp.add(
                         || format!("channel {w}, albedo {a}, direction {d}, Stokes {s}"),
                         x.mean()[s],
                         x.standard_error()[s],
                         mean,
-                        var.sqrt(),
+                        se,
                     );
                     if w == 0 && a == 0 && d == 0 && s == 0 {
                         // The product of the band means, from the same renders.
-                        let (mut l, mut l_var) = (0.0, 0.0);
-                        for (k, &(_, g)) in GAUSS_6.iter().enumerate() {
-                            l += 0.5 * g * renders[k][a][d].mean()[0];
-                            l_var += (0.5 * g * renders[k][a][d].standard_error()[0]).powi(2);
-                        }
+                        let gauss: Vec<f64> = GAUSS_6.iter().map(|&(_, g)| 0.5 * g).collect();
+                        let (l, l_se) = combine(&renders, &gauss, a, d, 0);
                         let e0 = solar.band_mean(lo, hi).unwrap();
-                        naive_z = (x.mean()[0] - e0 * l) / x.standard_error()[0].hypot(e0 * l_var.sqrt());
+                        naive_z = (x.mean()[0] - e0 * l) / x.standard_error()[0].hypot(e0 * l_se);
                     }
                 }
             }
