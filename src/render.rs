@@ -281,17 +281,36 @@ pub fn flux_stream(up: bool) -> u64 {
 /// viewing direction in the upper (`up` false: light coming down) or lower
 /// hemisphere, for every albedo of the scene.
 pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler) -> Radiances {
+    let (v, phi) = flux_direction(up, s);
+    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+    to_irradiance(&mut l.values);
+    l
+}
+
+/// [`flux_sample`] for every channel of shared spectral paths.
+pub fn flux_sample_spectral(scene: &SpectralScene, altitude_km: f64, up: bool, s: &mut Sampler) -> SpectralRadiances {
+    let (v, phi) = flux_direction(up, s);
+    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+    to_irradiance(&mut l.values);
+    l
+}
+
+/// A cosine-distributed viewing direction in the upper (`up` false) or
+/// lower hemisphere, and its azimuth.
+fn flux_direction(up: bool, s: &mut Sampler) -> (DVec3, f64) {
     let sign = if up { -1.0 } else { 1.0 };
     let u = s.next2();
     let r = u[0].sqrt();
     let phi = 2.0 * PI * u[1];
     let z = sign * (1.0 - u[0]).max(0.0).sqrt();
-    let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
-    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
-    for x in l.values.iter_mut() {
+    (DVec3::new(r * phi.cos(), r * phi.sin(), z), phi)
+}
+
+/// Radiances of cosine-distributed directions to irradiances: π·I.
+fn to_irradiance(values: &mut [Stokes]) {
+    for x in values.iter_mut() {
         *x = Stokes::new(PI * x.0[0], 0.0, 0.0, 0.0);
     }
-    l
 }
 
 /// The direct solar irradiance on a horizontal plane at the observer,

@@ -61,6 +61,9 @@ use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
 use crate::sun::Sun;
 use crate::tracking::{self, Ray, WalkEnd};
 
+/// The widest wavelength cell of the direct irradiance's band average (nm).
+pub const DIRECT_CELL_NM: f64 = 0.05;
+
 /// One output channel: a wavelength, or a band around it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Channel {
@@ -380,6 +383,52 @@ impl SpectralScene {
         }
         self.refresh_weights(spectra);
         self.refresh_source(spectra, lambda);
+    }
+
+    /// The direct solar irradiance on a horizontal plane at the observer
+    /// in channel `w`: μ0·T(λ) (times the source at λ, when radiances are
+    /// weighted by one), averaged over the band by the composite midpoint
+    /// rule on cells of at most [`DIRECT_CELL_NM`] (the ozone data's
+    /// spacing is 0.1 nm); a monochromatic channel's value at its
+    /// wavelength. Optical depths are exact: one column per extinction
+    /// term along the sun's direction, Σ_t response_t(λ)·τ_t.
+    pub fn direct_horizontal(&self, altitude_km: f64, w: usize) -> f64 {
+        let origin = self.geometry.observer_position(altitude_km);
+        let dir = self.sun.direction;
+        let mu0 = dir.dot(self.geometry.up(origin));
+        if mu0 <= 0.0 {
+            return 0.0;
+        }
+        let levels = &self.levels_km;
+        let terms = &self.terms.terms;
+        let mut columns = vec![0.0; terms.len()];
+        if let Some(layer) = tracking::layer_at(levels, altitude_km, mu0) {
+            let ray = Ray { origin, dir, layer };
+            let end = tracking::walk(&self.geometry, levels, &ray, |seg| {
+                for (c, t) in columns.iter_mut().zip(terms) {
+                    *c += t.amount[seg.layer] * (seg.t1 - seg.t0);
+                }
+                ControlFlow::Continue(())
+            });
+            if !matches!(end, WalkEnd::Top { .. }) {
+                return 0.0;
+            }
+        }
+        let channel = self.channels[w];
+        let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
+        let mut responses = vec![Response::default(); terms.len()];
+        let mut sum = 0.0;
+        for k in 0..cells {
+            let lambda = channel.wavelength((k as f64 + 0.5) / cells as f64);
+            self.terms.responses_into(lambda, &mut responses);
+            let tau: f64 = responses.iter().zip(&columns).map(|(r, c)| r.ext * c).sum();
+            let source = match &self.source {
+                Some(solar) => solar.irradiance(lambda).unwrap_or(0.0),
+                None => 1.0,
+            };
+            sum += (-tau.max(0.0)).exp() * source;
+        }
+        mu0 * sum / cells as f64
     }
 
     /// The number of channels.

@@ -45,8 +45,10 @@ pub enum Source {
 pub enum EstimateKind {
     /// The radiance of viewing direction `direction` (index).
     Direction { source: Source, direction: usize },
-    /// The downward (`up` false) or upward irradiance at one wavelength.
-    Flux { wavelength: usize, up: bool },
+    /// The downward (`up` false) or upward irradiance: at one
+    /// wavelength, or at every channel along shared paths (bands, whose
+    /// wavelengths vary per path).
+    Flux { source: Source, up: bool },
     /// Every pixel of the image.
     Pixels { source: Source },
 }
@@ -110,6 +112,19 @@ impl Layout {
                         });
                     }
                 }
+                let shared_fluxes = shared && job.banded();
+                if spec.fluxes && shared_fluxes {
+                    for up in [false, true] {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::Flux {
+                                source: Source::Shared,
+                                up,
+                            },
+                            keys: [seed, key(SHARED_STREAM), render::flux_stream(up)],
+                            values: nw * na,
+                        });
+                    }
+                }
                 for w in 0..nw {
                     if !shared {
                         for d in 0..directions.len() {
@@ -123,10 +138,13 @@ impl Layout {
                             });
                         }
                     }
-                    if spec.fluxes {
+                    if spec.fluxes && !shared_fluxes {
                         for up in [false, true] {
                             estimates.push(Estimate {
-                                kind: EstimateKind::Flux { wavelength: w, up },
+                                kind: EstimateKind::Flux {
+                                    source: Source::Wavelength(w),
+                                    up,
+                                },
                                 keys: [seed, key(w), render::flux_stream(up)],
                                 values: na,
                             });
@@ -395,12 +413,20 @@ pub fn run(
                         radiance_wave(scene, job, layout, &est, work.clone(), tallies, altitude_km);
                     }
                 },
-                EstimateKind::Flux { wavelength, up } => {
-                    let scene = scenes.single(wavelength);
-                    render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
-                        render::flux_sample(scene, altitude_km, up, s)
-                    })
-                }
+                EstimateKind::Flux { source, up } => match source {
+                    Source::Shared => {
+                        let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
+                        render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
+                            render::flux_sample_spectral(scene, altitude_km, up, s)
+                        })
+                    }
+                    Source::Wavelength(w) => {
+                        let scene = scenes.single(w);
+                        render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
+                            render::flux_sample(scene, altitude_km, up, s)
+                        })
+                    }
+                },
             }
             state.done[e] += work.end - work.start;
             let paths = layout.paths_of(e, &work);
@@ -505,16 +531,31 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
                     }
                 }
             },
-            EstimateKind::Flux { wavelength, up } => flux[wavelength][up as usize] = tallies.clone(),
+            EstimateKind::Flux { source, up } => match source {
+                Source::Shared => {
+                    for (w, f) in flux.iter_mut().enumerate() {
+                        f[up as usize] = tallies[w * na..(w + 1) * na].to_vec();
+                    }
+                }
+                Source::Wavelength(w) => flux[w][up as usize] = tallies.clone(),
+            },
             EstimateKind::Pixels { .. } => {}
         }
     }
     let mut result = RenderResult::default();
+    let band_scene = (spec.fluxes && job.banded())
+        .then(|| job.spectral_scene(task))
+        .flatten();
     for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
         let k = job.unit_scale(wavelength_nm);
-        let e_dir = spec
-            .fluxes
-            .then(|| k * render::direct_horizontal(&job.scene_for(task, w), task.observer_altitude_km));
+        let altitude_km = task.observer_altitude_km;
+        let e_dir = spec.fluxes.then(|| {
+            k * match &band_scene {
+                // A band's direct irradiance is its band average.
+                Some(scene) => scene.direct_horizontal(altitude_km, w),
+                None => render::direct_horizontal(&job.scene_for(task, w), altitude_km),
+            }
+        });
         for (a, &albedo) in spec.albedos.iter().enumerate() {
             for (direction, tally) in directions.iter().zip(&radiance[w][a]) {
                 result.radiance.push(RadianceRow {

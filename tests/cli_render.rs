@@ -153,11 +153,6 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "render.forced_collisions",
             "band_width_nm",
         ),
-        (
-            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[sensor]\ndirections = [[0.0, 0.0]]\nfluxes = true\n",
-            "sensor.fluxes",
-            "band",
-        ),
         // Absolute units need the Kurucz irradiance (250–10000 nm) over
         // every channel, band edges included.
         (
@@ -189,8 +184,10 @@ fn band_channels_render_and_are_recorded() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let radiance = std::fs::read_to_string(dir.path().join("out/radiance.csv")).unwrap();
     assert_eq!(radiance.lines().count(), 3, "{radiance}");
-    // No fluxes by default with bands.
-    assert!(!dir.path().join("out/fluxes.csv").exists());
+    // Band-averaged fluxes, one row per band.
+    let fluxes = std::fs::read_to_string(dir.path().join("out/fluxes.csv")).unwrap();
+    assert_eq!(fluxes.lines().count(), 3, "{fluxes}");
+    assert!(fluxes.lines().nth(1).unwrap().starts_with("340"), "{fluxes}");
     let meta = std::fs::read_to_string(dir.path().join("out/task.toml")).unwrap();
     assert!(meta.contains("band_width_nm = [40.0, 40.0]"), "{meta}");
     assert!(meta.contains("wavelengths_nm = [340.0, 380.0]"), "{meta}");

@@ -229,3 +229,94 @@ fn absolute_bands_average_the_source_weighted_radiance() {
         "the zenith band average should lie well below mean(E0)·mean(L): z = {naive_z}"
     );
 }
+
+/// The fluxes rows of `job`'s first task, `[channel][albedo]`.
+fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::render::Fluxes>> {
+    let result = atmosim::render::render_task(job, &job.tasks[0], &|_| {});
+    let na = job.render.albedos.len();
+    result
+        .fluxes
+        .chunks(na)
+        .map(|c| c.iter().map(|r| r.fluxes).collect())
+        .collect()
+}
+
+#[test]
+fn band_fluxes_average_the_fluxes_over_the_band() {
+    // 350–400 nm: Rayleigh falls ×0.59 and the OPAC optics are linear in
+    // λ between these two table wavelengths (a table wavelength inside the
+    // band would be a kink that six-point Gauss–Legendre quadrature does
+    // not resolve to 1e-6), so quadrature of six single wavelengths is
+    // exact far below the Monte Carlo errors; beside it a monochromatic
+    // channel; normalised and absolute units. E_dir is deterministic on
+    // both sides: the band's midpoint rule against the quadrature, to 1e-6.
+    let base = "[atmosphere]\nozone = \"none\"\naerosol = \"continental_average\"\nvisibility_km = 40.0\n\
+                [sun]\nelevation_deg = 25.0\n[observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n\
+                [sensor]\ndirections = [[0.0, 0.0]]\n";
+    let (centre, width) = (375.0, 50.0);
+    let samples = common::samples(40_000);
+    let nodes: Vec<f64> = GAUSS_6.iter().map(|&(x, _)| centre + 0.5 * width * x).collect();
+    let node_list = nodes.iter().map(|n| format!("{n}")).collect::<Vec<_>>().join(", ");
+    let mono = job(&format!(
+        "{base}[spectrum]\nwavelengths_nm = [{node_list}, 520.0]\n[render]\nsamples = {samples}\nseed = 11\n"
+    ));
+    let reference = task_fluxes(&mono);
+    let solar = SolarSpectrum::kurucz().unwrap();
+    let (lo, hi) = (centre - 0.5 * width, centre + 0.5 * width);
+    let mut cmp = Comparison::default();
+    for units in ["normalized", "absolute"] {
+        let banded = job(&format!(
+            "{base}[spectrum]\nwavelengths_nm = [{centre}, 520.0]\nband_width_nm = [{width}, 0.0]\n\
+             [render]\nsamples = {samples}\nseed = 12\n[output]\nunits = \"{units}\"\n"
+        ));
+        let shared = task_fluxes(&banded);
+        // Quadrature weights of the band (E0-weighted in absolute units)
+        // and the factor of the monochromatic channel.
+        let (band_weights, mono_factor) = if units == "absolute" {
+            (source_weights(&solar, &nodes, lo, hi), solar.irradiance(520.0).unwrap())
+        } else {
+            (GAUSS_6.iter().map(|&(_, g)| 0.5 * g).collect(), 1.0)
+        };
+        for (a, albedo) in ["0", "0.4"].iter().enumerate() {
+            let channels: [(&str, Vec<(usize, f64)>); 2] = [
+                ("band", band_weights.iter().copied().enumerate().collect()),
+                ("520 nm", vec![(nodes.len(), mono_factor)]),
+            ];
+            for (w, (name, parts)) in channels.iter().enumerate() {
+                let got = shared[w][a];
+                let sum = |f: &dyn Fn(&atmosim::render::Fluxes) -> f64| {
+                    parts.iter().map(|&(k, c)| c * f(&reference[k][a])).sum::<f64>()
+                };
+                let e_dir = sum(&|f| f.e_dir);
+                assert!(
+                    (got.e_dir - e_dir).abs() <= 1e-6 * e_dir,
+                    "{units} {name} albedo {albedo}: E_dir {} vs quadrature {e_dir}",
+                    got.e_dir
+                );
+                let var = |f: &dyn Fn(&atmosim::render::Fluxes) -> f64| {
+                    parts
+                        .iter()
+                        .map(|&(k, c)| (c * f(&reference[k][a])).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                };
+                for (what, x, se, r, r_se) in [
+                    (
+                        "E_down",
+                        got.e_down,
+                        got.e_down_se,
+                        sum(&|f| f.e_down),
+                        var(&|f| f.e_down_se),
+                    ),
+                    ("E_up", got.e_up, got.e_up_se, sum(&|f| f.e_up), var(&|f| f.e_up_se)),
+                ] {
+                    cmp.add(|| format!("{units} {name} albedo {albedo} {what}"), x, se, r, r_se);
+                }
+            }
+        }
+    }
+    println!(
+        "{}",
+        cmp.assert_no_outlier("band fluxes vs quadrature of single wavelengths")
+    );
+}

@@ -334,14 +334,13 @@ impl Job {
             ));
         }
         let r = &self.render;
-        let conflicts: [(&str, bool, &str); 4] = [
+        let conflicts: [(&str, bool, &str); 3] = [
             ("render.shared_wavelengths", !r.shared_wavelengths, "false"),
             (
                 "render.sun_sampling",
                 r.settings.sun_sampling == SunSampling::SunAware,
                 "\"sun_aware\"",
             ),
-            ("sensor.fluxes", r.fluxes, "true"),
             ("output.sun", r.output_sun, "true"),
         ];
         if let Some((key, _, value)) = conflicts.iter().find(|c| c.1) {
@@ -548,8 +547,7 @@ impl Job {
                 ));
             }
         }
-        let banded = band_widths_nm.iter().any(|&w| w > 0.0);
-        let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output, banded)?;
+        let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output)?;
         let mut tasks = Vec::with_capacity(atmospheres.len() * render.sun_zeniths_deg.len() * altitudes.len());
         for (v, atmosphere) in &atmospheres {
             for &z in &render.sun_zeniths_deg {

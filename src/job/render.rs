@@ -106,7 +106,6 @@ pub(super) fn resolve(
     sensor: Option<RawSensor>,
     render: Option<RawRender>,
     output: Option<RawOutput>,
-    banded: bool,
 ) -> Result<RenderSpec> {
     let sun = sun.unwrap_or_default();
     let sun_zeniths_deg = match (&sun.zenith_deg, &sun.elevation_deg) {
@@ -186,7 +185,7 @@ pub(super) fn resolve(
         albedos,
         sensor,
         pixel_filter,
-        fluxes: sensor_raw.fluxes.unwrap_or(!banded),
+        fluxes: sensor_raw.fluxes.unwrap_or(true),
         samples,
         shared_wavelengths: render.shared_wavelengths.unwrap_or(true),
         seed: render.seed.unwrap_or(1),
