@@ -244,7 +244,11 @@ impl Scene {
                             let mut chosen = first;
                             for i in 0..k {
                                 let u = (i as f64 + sampler.next_f64()) / k as f64;
-                                let c = tracking::locate(&self.medium, &segments, tracking::forced_distance(u, p));
+                                let c = tracking::locate(
+                                    &self.medium,
+                                    segments.iter().map(|&(s, _)| s),
+                                    tracking::forced_distance(u, p),
+                                );
                                 let x = ray.origin + c.t * ray.dir;
                                 let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
                                 path.throughput = before * (coeffs.sigma_s() / coeffs.sigma_t / k as f64);
@@ -568,7 +572,8 @@ struct FlightPart {
 struct Path {
     throughput: Mueller,
     /// Reference axis e1 of the Stokes frame of the light arriving at the
-    /// current vertex (perpendicular to its propagation direction).
+    /// current vertex (perpendicular to its propagation direction; of any
+    /// nonzero length, see [`scattering_frame`]).
     frame_e1: DVec3,
     order: u32,
     radiance: Radiances,
@@ -665,16 +670,24 @@ impl Path {
 /// e1 for the incoming light k_in. Scattering plane normal n = k_in × k_out;
 /// e1 = n × k. For forward or backward scattering the plane is undefined and
 /// the path's own frame is kept.
+///
+/// Nothing is normalised: the rotation depends only on the directions of
+/// the two axes ([`StokesRotation::between`] is scale-invariant), so n and
+/// the axes keep the length |n| (sin Θ, or |e1_out| when the plane is
+/// undefined), and the returned axis is rescaled only when its length
+/// would otherwise drift toward underflow over very long paths.
 pub(crate) fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation, DVec3) {
     let cross = k_in.cross(k_out);
-    let len = cross.length();
-    let n = if len > 1e-12 {
-        cross / len
+    let n = if cross.length_squared() > 1e-24 {
+        cross
     } else {
-        k_out.cross(e1_out).normalize()
+        k_out.cross(e1_out)
     };
     let e1_sc_out = n.cross(k_out);
-    let e1_in = n.cross(k_in);
+    let mut e1_in = n.cross(k_in);
+    if e1_in.length_squared() < 1e-100 {
+        e1_in = e1_in.normalize();
+    }
     // S(e1_out) = R(ψ) S(e1_sc_out).
     (StokesRotation::between(e1_sc_out, e1_out, k_out), e1_in)
 }
@@ -686,4 +699,54 @@ pub(crate) fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
     let (b1, b2) = orthonormal_basis(up);
     let z = (1.0 - u[0]).max(0.0).sqrt();
     (r * phi.cos() * b1 + r * phi.sin() * b2 + z * up).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stokes::rotation_angle;
+
+    fn unit(s: &mut Sampler) -> DVec3 {
+        let [u, v] = s.next2();
+        let z = 2.0 * u - 1.0;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * PI * v;
+        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    #[test]
+    fn unnormalised_scattering_frames_give_the_unit_frames_rotation() {
+        // The written definition with unit vectors: n = k_in × k_out
+        // normalised, e1 = n × k, ψ from `rotation_angle`. The path's axis
+        // may have any length (1 down to 1e-45 here), and nearly forward
+        // scattering keeps the path's own frame.
+        let mut s = Sampler::new(&[31]);
+        for i in 0..10_000 {
+            let k_out = unit(&mut s);
+            let k_in = if i % 10 == 0 { k_out } else { unit(&mut s) };
+            let (b1, b2) = orthonormal_basis(k_out);
+            let a = 2.0 * PI * s.next_f64();
+            let e1_unit = a.cos() * b1 + a.sin() * b2;
+            let scale = 10f64.powf(-45.0 * s.next_f64());
+            let (rotation, e1_in) = scattering_frame(e1_unit * scale, k_in, k_out);
+            let cross = k_in.cross(k_out);
+            let n = if cross.length() > 1e-12 {
+                cross.normalize()
+            } else {
+                k_out.cross(e1_unit).normalize()
+            };
+            let expected = StokesRotation::from_angle(rotation_angle(n.cross(k_out), e1_unit, k_out));
+            assert!(
+                (rotation.cos_2psi - expected.cos_2psi).abs() < 1e-12,
+                "{rotation:?} vs {expected:?}"
+            );
+            assert!(
+                (rotation.sin_2psi - expected.sin_2psi).abs() < 1e-12,
+                "{rotation:?} vs {expected:?}"
+            );
+            let len = e1_in.length();
+            assert!(len > 1e-60 && (e1_in / len - n.cross(k_in)).length() < 1e-12);
+            assert!(e1_in.dot(k_in).abs() <= 1e-12 * len);
+        }
+    }
 }

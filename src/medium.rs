@@ -179,6 +179,12 @@ impl Medium {
         self.sigma_maj[i]
     }
 
+    /// The majorant of every layer (km⁻¹).
+    #[inline]
+    pub fn sigma_majorants(&self) -> &[f64] {
+        &self.sigma_maj
+    }
+
     /// True when σ_t equals the majorant in layer `i` (layered, unscaled).
     pub fn is_exact_majorant(&self, i: usize) -> bool {
         self.shapes.is_none() && self.sigma_maj[i] == self.sigma_t_layer[i]

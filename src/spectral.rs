@@ -67,7 +67,7 @@ use crate::solar::SolarSpectrum;
 use crate::spectral_terms::{Response, SpectralTerms};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
 use crate::sun::Sun;
-use crate::tracking::{self, Ray, WalkEnd};
+use crate::tracking::{self, Ray, Segment, ShellExit, WalkEnd};
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
 pub const DIRECT_CELL_NM: f64 = 0.05;
@@ -175,8 +175,10 @@ struct Path {
     matrices: Vec<PhaseMatrix>,
     /// Scratch per basis vector: optical depths.
     tau_basis: Vec<f64>,
-    /// Scratch per level: the weighted half chords of a ray.
+    /// Scratch per level: the half chords of the last ray through
+    /// concentric shells, and how that ray crosses them.
     chords: Vec<f64>,
+    exit: Option<ShellExit>,
 }
 
 /// A thread's reusable state: the path and, for bands, its spectra.
@@ -631,25 +633,20 @@ impl SpectralScene {
         let end = match self.geometry {
             Geometry::Spherical { radius_km } => {
                 let exit = tracking::shell_exit(radius_km, levels, ray);
-                // The levels crossed, in one run: twice (a dip), then once.
-                let start = if exit.twice.is_empty() {
-                    exit.once.start
-                } else {
-                    exit.twice.start
-                };
-                let range = start..exit.once.end;
-                let c = &mut path.chords[range.clone()];
-                tracking::half_chords_into(radius_km, &levels[range.clone()], exit.h, c);
-                c[..exit.twice.len()].iter_mut().for_each(|x| *x *= 2.0);
+                let range = exit.levels();
+                let c = &mut path.chords[..range.len()];
+                tracking::half_chords_into(radius_km, &levels[range], exit.h, c);
                 let base = &self.basis_sigma[ray.layer * b..(ray.layer + 1) * b];
                 let stride = levels.len();
                 for (j, (t, s)) in tau.iter_mut().zip(base).enumerate() {
-                    let steps = &self.basis_steps[j * stride + range.start..j * stride + range.end];
-                    *t = tracking::dot(c, steps) - exit.b * s;
+                    *t = exit.depth(*s, &self.basis_steps[j * stride..(j + 1) * stride], c);
                 }
-                Some(exit.end(radius_km, levels, ray))
+                let end = exit.end(radius_km, levels, ray);
+                path.exit = Some(exit);
+                Some(end)
             }
             Geometry::PlaneParallel => {
+                path.exit = None;
                 let mut endless = false;
                 let end = tracking::walk(&self.geometry, levels, ray, |seg| {
                     if seg.t1.is_finite() {
@@ -716,7 +713,7 @@ impl SpectralScene {
         let mut last = None;
         let tau = &mut path.tau_basis;
         tau.fill(0.0);
-        tracking::walk(&self.geometry, &self.levels_km, ray, |s| {
+        let visit = |s: Segment| {
             let sigma = self.sigma_t(spectra, s.layer, hero);
             let d = sigma * (s.t1 - s.t0);
             if sigma > 0.0 && acc + d >= target {
@@ -729,7 +726,17 @@ impl SpectralScene {
             acc += d;
             last = Some((s.t1, s.layer));
             ControlFlow::Continue(())
-        });
+        };
+        // The segments from the half chords `exit_depths` left (no square
+        // roots), or walked in a slab.
+        match &path.exit {
+            Some(exit) => {
+                let _ = exit.segments(&path.chords).try_for_each(visit);
+            }
+            None => {
+                tracking::walk(&self.geometry, &self.levels_km, ray, visit);
+            }
+        }
         let Some((t, layer)) = hit.or(last) else {
             return Outcome::Escaped;
         };

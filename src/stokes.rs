@@ -365,9 +365,10 @@ impl StokesRotation {
                 sin_2psi: 0.0,
             };
         }
+        let inv = 1.0 / r2;
         StokesRotation {
-            cos_2psi: (c * c - s * s) / r2,
-            sin_2psi: 2.0 * c * s / r2,
+            cos_2psi: (c * c - s * s) * inv,
+            sin_2psi: 2.0 * c * s * inv,
         }
     }
 

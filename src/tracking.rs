@@ -267,6 +267,11 @@ pub struct ForcedFlight {
 /// flight is analog (the same distribution as delta tracking). τ comes from
 /// [`exit_optical_depth`]; the collision is found by walking the segments
 /// only as far as it ([`locate_on_ray`]).
+///
+/// In concentric piecewise-constant shells the ray's half chords are
+/// computed once ([`half_chords_into`]) and give both τ and the segments
+/// the collision is searched along ([`ShellExit::segments`]), so the search
+/// takes no further square roots.
 pub fn forced_flight(
     medium: &Medium,
     geometry: &Geometry,
@@ -274,7 +279,48 @@ pub fn forced_flight(
     sampler: &mut Sampler,
     ground_counts: bool,
 ) -> ForcedFlight {
-    let (tau_exit, end) = exit_optical_depth(medium, geometry, ray);
+    match *geometry {
+        Geometry::Spherical { radius_km } if medium.is_piecewise_constant() => {
+            let levels = medium.levels_km();
+            let exit = shell_exit(radius_km, levels, ray);
+            let range = exit.levels();
+            let mut stack = [0.0; STACK_CHORDS];
+            let mut heap = Vec::new();
+            let chords = if range.len() <= STACK_CHORDS {
+                &mut stack[..range.len()]
+            } else {
+                heap.resize(range.len(), 0.0);
+                &mut heap[..]
+            };
+            half_chords_into(radius_km, &levels[range], exit.h, chords);
+            let tau_exit = exit.depth(medium.sigma_maj(ray.layer), medium.steps(), chords).max(0.0);
+            let end = exit.end(radius_km, levels, ray);
+            forced_from(tau_exit, end, sampler, ground_counts, |target| {
+                exit.locate(medium.sigma_majorants(), chords, target)
+            })
+        }
+        _ => {
+            let (tau_exit, end) = exit_optical_depth(medium, geometry, ray);
+            forced_from(tau_exit, end, sampler, ground_counts, |target| {
+                locate_on_ray(medium, geometry, ray, target)
+            })
+        }
+    }
+}
+
+/// Half chords kept on the stack for a forced flight (more levels than
+/// this go to the heap).
+const STACK_CHORDS: usize = 128;
+
+/// [`forced_flight`] given the ray's majorant depth to its end and how it
+/// ends; `locate` finds the point at a majorant depth.
+fn forced_from(
+    tau_exit: f64,
+    end: WalkEnd,
+    sampler: &mut Sampler,
+    ground_counts: bool,
+    locate: impl FnOnce(f64) -> Collision,
+) -> ForcedFlight {
     let u = sampler.next_f64();
     let (tau_target, weight, forced_probability) = match end {
         WalkEnd::Ground { t } if ground_counts => {
@@ -307,7 +353,7 @@ pub fn forced_flight(
         }
     };
     ForcedFlight {
-        end: FlightEnd::Collided(locate_on_ray(medium, geometry, ray, tau_target)),
+        end: FlightEnd::Collided(locate(tau_target)),
         weight,
         forced_probability,
     }
@@ -350,12 +396,13 @@ pub fn locate_on_ray(medium: &Medium, geometry: &Geometry, ray: &Ray, tau_target
     hit.unwrap_or_else(|| search.beyond(medium))
 }
 
-/// The point at optical depth `tau_target` along the walked `segments`.
-pub fn locate(medium: &Medium, segments: &[(Segment, f64)], tau_target: f64) -> Collision {
+/// The point at majorant optical depth `tau_target` along `segments` (in
+/// order along the ray).
+pub fn locate(medium: &Medium, segments: impl IntoIterator<Item = Segment>, tau_target: f64) -> Collision {
     let mut search = DepthSearch::new(tau_target);
     segments
-        .iter()
-        .find_map(|&(seg, tau)| search.step(medium, seg, tau))
+        .into_iter()
+        .find_map(|seg| search.step(medium, seg, majorant_depth(medium, &seg)))
         .unwrap_or_else(|| search.beyond(medium))
 }
 
@@ -482,6 +529,117 @@ pub struct ShellExit {
 }
 
 impl ShellExit {
+    /// The levels the ray crosses, in one run (those crossed twice, then
+    /// those crossed once): the half chords [`ShellExit::depth`] and
+    /// [`ShellExit::segments`] read.
+    pub fn levels(&self) -> std::ops::Range<usize> {
+        let start = if self.twice.is_empty() {
+            self.once.start
+        } else {
+            self.twice.start
+        };
+        start..self.once.end
+    }
+
+    /// The optical depth to where the ray leaves, for σ of the origin's
+    /// layer `sigma_origin`, the σ steps at every level and the half chords
+    /// `chords` of [`ShellExit::levels`].
+    pub fn depth(&self, sigma_origin: f64, steps: &[f64], chords: &[f64]) -> f64 {
+        let start = self.levels().start;
+        let part = |r: &std::ops::Range<usize>| {
+            if r.is_empty() {
+                0.0
+            } else {
+                dot(&chords[r.start - start..r.end - start], &steps[r.clone()])
+            }
+        };
+        -self.b * sigma_origin + 2.0 * part(&self.twice) + part(&self.once)
+    }
+
+    /// The ray's layer segments in order, from the half chords `chords` of
+    /// [`ShellExit::levels`] (no square roots): the ray meets the shell of
+    /// level k at t = −b − S_k descending and t = −b + S_k ascending. It
+    /// descends through the levels crossed twice (or, into the ground,
+    /// through all those below), then ascends through every level of the
+    /// run. The absolute error of each t is of order ε·R, like the depth's.
+    pub fn segments<'a>(&'a self, chords: &'a [f64]) -> impl Iterator<Item = Segment> + 'a {
+        let mut t = 0.0;
+        self.boundaries(chords).map(move |(layer, end)| {
+            let t1 = end.max(t);
+            let seg = Segment { t0: t, t1, layer };
+            t = t1;
+            seg
+        })
+    }
+
+    /// The levels met descending (in reverse order) and then ascending:
+    /// descending through those crossed twice (or, into the ground, through
+    /// all those below), then ascending through the whole run.
+    fn runs(&self) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        if self.ground {
+            (self.once.clone(), 0..0)
+        } else {
+            (self.twice.clone(), self.levels())
+        }
+    }
+
+    /// Each segment's layer and where it ends, in order (unclamped).
+    fn boundaries<'a>(&'a self, chords: &'a [f64]) -> impl Iterator<Item = (usize, f64)> + 'a {
+        let start = self.levels().start;
+        let b = self.b;
+        let (down, up) = self.runs();
+        down.rev()
+            .map(move |k| (k, -b - chords[k - start]))
+            .chain(up.map(move |k| (k - 1, -b + chords[k - start])))
+    }
+
+    /// The point at optical depth `target` along the ray, for σ per layer
+    /// `sigma` and the half chords `chords` of [`ShellExit::levels`]: the
+    /// search of [`locate`] over [`ShellExit::boundaries`] written out as two
+    /// plain loops (the hot path of forced flights: 7 % faster on the
+    /// throughput case than the iterator, 10 % faster than `try_for_each`
+    /// over it); the last segment's end if rounding leaves the target beyond
+    /// the ray's end.
+    pub fn locate(&self, sigma: &[f64], chords: &[f64], target: f64) -> Collision {
+        let start = self.levels().start;
+        let b = self.b;
+        let mut t = 0.0;
+        let mut acc = 0.0;
+        let mut last = None;
+        let mut step = |layer: usize, end: f64| {
+            let t1 = end.max(t);
+            let s = sigma[layer];
+            let d = s * (t1 - t);
+            if s > 0.0 && acc + d >= target {
+                return Some(Collision {
+                    t: (t + (target - acc) / s).min(t1),
+                    layer,
+                    sigma_maj: s,
+                });
+            }
+            acc += d;
+            t = t1;
+            last = Some(Collision {
+                t: t1,
+                layer,
+                sigma_maj: s,
+            });
+            None
+        };
+        let (down, up) = self.runs();
+        for k in down.rev() {
+            if let Some(c) = step(k, -b - chords[k - start]) {
+                return c;
+            }
+        }
+        for k in up {
+            if let Some(c) = step(k - 1, -b + chords[k - start]) {
+                return c;
+            }
+        }
+        last.expect("a located flight has a segment")
+    }
+
     /// How the ray ends, with its distance to the ground or the top
     /// (computed on demand: most callers need only the optical depth).
     pub fn end(&self, radius_km: f64, levels_km: &[f64], ray: &Ray) -> WalkEnd {
@@ -892,13 +1050,44 @@ mod tests {
             let Some(layer) = layer_at(levels, z, mu) else { continue };
             let ray = Ray { origin: o, dir, layer };
             let mut walked = 0.0;
+            let mut walked_segments = Vec::new();
             let walk_end = walk(&g, levels, &ray, |seg| {
                 walked += m.sigma_maj(seg.layer) * (seg.t1 - seg.t0);
+                walked_segments.push(seg);
                 ControlFlow::Continue(())
             });
             let (closed, end) = exit_optical_depth(&m, &g, &ray);
             // Both sums carry rounding of order levels·ε·R·max σ ≈ 1e-11.
             assert!((closed - walked).abs() < 2e-11, "z {z} μ {mu}: {closed} vs {walked}");
+            // The same depth and segments from the stored half chords.
+            let exit = shell_exit(R, levels, &ray);
+            let mut chords = vec![0.0; exit.levels().len()];
+            half_chords_into(R, &levels[exit.levels()], exit.h, &mut chords);
+            let from_chords = exit.depth(m.sigma_maj(layer), m.steps(), &chords);
+            assert!(
+                (from_chords - walked).abs() < 2e-11,
+                "z {z} μ {mu}: {from_chords} vs {walked}"
+            );
+            // The specialised search finds what the generic one finds along
+            // the same segments, also past the end (rounding).
+            for target in [s.next_f64() * from_chords, 1.5 * from_chords + 1.0] {
+                let fast = exit.locate(m.sigma_majorants(), &chords, target);
+                let generic = locate(&m, exit.segments(&chords), target);
+                assert_eq!(fast, generic, "z {z} μ {mu} τ {target}");
+            }
+            let segments: Vec<Segment> = exit.segments(&chords).collect();
+            assert_eq!(segments.len(), walked_segments.len(), "z {z} μ {mu}");
+            for (a, b) in segments.iter().zip(&walked_segments) {
+                assert_eq!(a.layer, b.layer, "z {z} μ {mu}");
+                // Both ends agree to rounding: −b ± S loses digits to
+                // cancellation where the walk's quotient form does not, an
+                // error of order ε·R·h/S (1e-11 km at a 400 km chord); 1e-9 km
+                // as for the exit distance below.
+                assert!(
+                    (a.t0 - b.t0).abs() < 1e-9 && (a.t1 - b.t1).abs() < 1e-9,
+                    "z {z} μ {mu}: {a:?} vs {b:?}"
+                );
+            }
             match (end, walk_end) {
                 (WalkEnd::Top { t: a }, WalkEnd::Top { t: b })
                 | (WalkEnd::Ground { t: a }, WalkEnd::Ground { t: b }) => {
