@@ -227,7 +227,7 @@ impl Scene {
                         None if sun_done => first,
                         None => {
                             let x = ray.origin + first.t * ray.dir;
-                            let coeffs = self.medium.at(first.layer, self.geometry.altitude(x));
+                            let coeffs = self.coefficients_at(first.layer, x);
                             let before = path.throughput;
                             path.throughput = before * (coeffs.sigma_s() / coeffs.sigma_t);
                             self.sun_from_scattering(path, x, first.layer, k_out, &coeffs, sampler);
@@ -250,7 +250,7 @@ impl Scene {
                                     tracking::forced_distance(u, p),
                                 );
                                 let x = ray.origin + c.t * ray.dir;
-                                let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
+                                let coeffs = self.coefficients_at(c.layer, x);
                                 path.throughput = before * (coeffs.sigma_s() / coeffs.sigma_t / k as f64);
                                 self.sun_from_scattering(path, x, c.layer, k_out, &coeffs, sampler);
                                 if i == pick {
@@ -262,7 +262,7 @@ impl Scene {
                         }
                     };
                     let x = ray.origin + c.t * ray.dir;
-                    let coeffs = self.medium.at(c.layer, self.geometry.altitude(x));
+                    let coeffs = self.coefficients_at(c.layer, x);
                     path.throughput = path.throughput * (coeffs.sigma_s() / coeffs.sigma_t);
                     if self.order_done(path.order) {
                         return;
@@ -415,7 +415,7 @@ impl Scene {
         let len = part.seg.t1 - part.seg.t0;
         let t = part.seg.t0 + u * len;
         let x = ray.origin + t * ray.dir;
-        let coeffs = self.medium.at(part.seg.layer, self.geometry.altitude(x));
+        let coeffs = self.coefficients_at(part.seg.layer, x);
         // e^(−τ(t))/q(t) = total/c · e^(τ̃_sun(t) − e_min), τ̃ linear in the segment.
         let sun_lin = part.sun0 + (part.sun1 - part.sun0) * u;
         let weight = total / part.c * (sun_lin - e_min).exp() * coeffs.sigma_s();
@@ -498,6 +498,12 @@ impl Scene {
             }
             None => 1.0,
         }
+    }
+
+    /// The medium's coefficients at point `x` in `layer`.
+    #[inline]
+    fn coefficients_at(&self, layer: usize, x: DVec3) -> PointCoefficients {
+        self.medium.at_altitude_of(layer, || self.geometry.altitude(x))
     }
 
     /// The layer a ray from collision point `x` (in `layer`) enters: the

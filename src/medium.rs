@@ -207,11 +207,19 @@ impl Medium {
     /// Coefficients in layer `i` at altitude `z_km`.
     #[inline]
     pub fn at(&self, i: usize, z_km: f64) -> PointCoefficients {
+        self.at_altitude_of(i, || z_km)
+    }
+
+    /// Coefficients in layer `i` at the altitude `z_km()`, called only for a
+    /// `smooth` medium (a layered one is constant in the layer; the
+    /// altitude of a point in spherical shells costs a square root).
+    #[inline]
+    pub fn at_altitude_of(&self, i: usize, z_km: impl FnOnce() -> f64) -> PointCoefficients {
         let o = &self.layers[i];
         let (fr, fo) = match &self.shapes {
             None => (1.0, 1.0),
             Some(s) => {
-                let f = ((z_km - self.levels_km[i]) / (self.levels_km[i + 1] - self.levels_km[i])).clamp(0.0, 1.0);
+                let f = ((z_km() - self.levels_km[i]) / (self.levels_km[i + 1] - self.levels_km[i])).clamp(0.0, 1.0);
                 (s[i].rayleigh_factor(f), s[i].ozone_factor(f))
             }
         };

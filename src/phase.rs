@@ -162,11 +162,12 @@ fn sample_rayleigh_cos_theta(d: f64, u: f64) -> f64 {
     (-q * a2 / (a2 * a2 + a2 * p3 + p3 * p3)).clamp(-1.0, 1.0)
 }
 
-/// ∛x to within an ulp or two, faster than the correctly rounded
-/// `f64::cbrt` (one per Rayleigh scattering): a first guess good to about
-/// five bits from the exponent field (the bits divided by 3 plus the bias
-/// term), then three steps of Halley's iteration
-/// y ← y·(y³ + 2x)/(2y³ + x), each of which triples the correct bits.
+/// ∛x to a relative 1e-14, faster than the correctly rounded `f64::cbrt`
+/// (one per Rayleigh scattering): a first guess good to 3 % from the
+/// exponent field (the bits divided by 3 plus the bias term), then two
+/// steps of Halley's iteration y ← y·(y³ + 2x)/(2y³ + x), each of which
+/// triples the correct digits (3 % → 2e-5 → 7e-15 at worst; a third step
+/// would reach the last ulp, which sampling has no use for).
 /// Zero, subnormals, infinities and NaN go to `f64::cbrt`.
 fn cube_root(x: f64) -> f64 {
     if !x.is_normal() {
@@ -175,7 +176,7 @@ fn cube_root(x: f64) -> f64 {
     let sign = x.to_bits() & (1 << 63);
     let ax = x.abs();
     let mut y = f64::from_bits(ax.to_bits() / 3 + 0x2a9f_7893_0000_0000);
-    for _ in 0..3 {
+    for _ in 0..2 {
         let y3 = y * y * y;
         y *= (y3 + 2.0 * ax) / (2.0 * y3 + ax);
     }
@@ -270,7 +271,7 @@ impl PhaseMixture {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn fast_cube_root_is_within_two_ulp() {
+    fn fast_cube_root_is_within_1e_14() {
         // Every binade from 1e-300 to 1e300, both signs, against std's
         // correctly rounded cube root.
         let mut s = crate::sampler::Sampler::new(&[41]);
@@ -279,9 +280,9 @@ mod tests {
             let e = -300.0 + 600.0 * s.next_f64();
             let x = 10f64.powf(e) * if i % 2 == 0 { 1.0 } else { -1.0 };
             let (fast, exact) = (super::cube_root(x), x.cbrt());
-            worst = worst.max(((fast - exact) / exact).abs() / f64::EPSILON);
+            worst = worst.max(((fast - exact) / exact).abs());
         }
-        assert!(worst <= 2.0, "{worst} ulp");
+        assert!(worst <= 1e-14, "{worst}");
         for x in [0.0, -0.0, f64::INFINITY, f64::MIN_POSITIVE / 4.0] {
             assert_eq!(super::cube_root(x), x.cbrt(), "{x}");
         }
