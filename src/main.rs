@@ -741,9 +741,9 @@ fn write_slurm(
     let (time, estimate) = match time {
         Some(t) => (t, None),
         None => {
-            let rate = plan::calibrate(job);
-            let secs = plan::unit_seconds(job, shards, rate, cpus);
-            (plan::hms(secs), Some(rate))
+            let rates = plan::calibrate(job);
+            let secs = plan::unit_seconds(job, shards, &rates, cpus);
+            (plan::hms(secs), Some(rates))
         }
     };
     let script = plan::slurm_script(job, &options, &time);
@@ -757,10 +757,12 @@ fn write_slurm(
             "note: {units} units exceed SLURM's default MaxArraySize (1001); submit in slices with ATMOSIM_UNIT_OFFSET (see the script's header)"
         );
     }
-    if let Some(rate) = estimate {
-        eprintln!(
-            "time per unit {time}: twice the estimate at {rate:.0} paths/s per core on {cpus} cpus, plus 10 minutes"
-        );
+    if let Some(rates) = estimate {
+        let rate = match rates.shared {
+            Some(shared) => format!("{shared:.0} shared spectral paths/s"),
+            None => format!("{:.0} paths/s", rates.single),
+        };
+        eprintln!("time per unit {time}: twice the estimate at {rate} per core on {cpus} cpus, plus 10 minutes");
     }
     println!("{}", path.display());
     eprintln!(

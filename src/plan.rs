@@ -1,30 +1,51 @@
 //! `atmosim plan`: the tasks of a job and what they cost, so a user can size
 //! a cluster allocation before rendering. Cost = paths (pixels or
-//! directions × samples × wavelengths × albedos, plus the flux estimates of
-//! a directions sensor) over a throughput measured by a short single-thread
-//! calibration render of the first task (its middle wavelength).
+//! directions × samples, plus the flux estimates of a directions sensor;
+//! every albedo from the same paths; once for shared spectral paths, else
+//! once per wavelength) over throughputs measured by short single-thread
+//! calibration renders of the first task: one at its middle wavelength,
+//! and one along shared paths when the task's wavelengths share them (a
+//! shared path carries every channel and costs more than a single one).
 
 use std::io::{self, Write};
 use std::time::Instant;
 
 use crate::job::{Job, Sensor};
-use crate::render::{Direction, render_directions};
+use crate::render::{Direction, render_directions, render_directions_spectral};
+use crate::shard::Shard;
+use crate::unit::Layout;
 
-/// Paths of one task.
+/// Paths of one task (shared spectral paths and single-wavelength paths).
 pub fn task_paths(job: &Job) -> u64 {
-    let spec = &job.render;
-    let per_layer = match &spec.sensor {
-        Sensor::Directions(d) => d.len() as u64 + if spec.fluxes { 2 } else { 0 },
-        // Pixels outside a fisheye's circle cost nothing.
-        Sensor::Image(camera) => crate::film::pixel_weights(camera).iter().filter(|w| **w > 0.0).count() as u64,
-    };
-    // All albedos share the paths.
-    per_layer * spec.samples * job.wavelengths_nm.len() as u64
+    let (shared, single) = layout(job).paths_by_source(Shard::WHOLE);
+    shared + single
+}
+
+/// The estimates of the first task.
+fn layout(job: &Job) -> Layout {
+    let task = &job.tasks[0];
+    Layout::new(job, task, job.spectral_scene(task).is_some())
+}
+
+/// Calibrated throughputs, paths per second on one core.
+#[derive(Debug, Clone, Copy)]
+pub struct Rates {
+    /// Paths at one wavelength.
+    pub single: f64,
+    /// Shared spectral paths (all channels), when the task has them.
+    pub shared: Option<f64>,
+}
+
+/// Core-seconds of one task at `rates`.
+pub fn task_core_seconds(job: &Job, rates: &Rates) -> f64 {
+    let (shared, single) = layout(job).paths_by_source(Shard::WHOLE);
+    single as f64 / rates.single.max(1e-9) + shared as f64 / rates.shared.unwrap_or(rates.single).max(1e-9)
 }
 
 /// Paths per second on one core for the first task, from about 0.2 s of
-/// rendering over directions spread on the sphere.
-pub fn calibrate(job: &Job) -> f64 {
+/// rendering over directions spread on the sphere: at its middle
+/// wavelength, and along shared paths if its wavelengths share them.
+pub fn calibrate(job: &Job) -> Rates {
     let task = &job.tasks[0];
     let scene = job.scene_for(task, job.wavelengths_nm.len() / 2);
     let directions: Vec<Direction> = (0..16)
@@ -34,39 +55,40 @@ pub fn calibrate(job: &Job) -> f64 {
         })
         .collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
-    let run = |n: u64| {
-        let start = Instant::now();
-        let work = || {
-            render_directions(
-                &scene,
-                task.observer_altitude_km,
-                &directions,
-                n,
-                job.render.seed,
-                u64::MAX,
-            )
-        };
-        match &pool {
-            Ok(p) => p.install(work),
-            Err(_) => work(),
-        };
-        (n * directions.len() as u64, start.elapsed().as_secs_f64())
-    };
-    let mut n = 64;
-    loop {
-        let (paths, secs) = run(n);
-        if secs > 0.2 || n >= 1 << 20 {
-            return paths as f64 / secs.max(1e-9);
+    let rate = |render: &(dyn Fn(u64) + Sync)| {
+        let mut n = 64;
+        loop {
+            let start = Instant::now();
+            match &pool {
+                Ok(p) => p.install(|| render(n)),
+                Err(_) => render(n),
+            };
+            let secs = start.elapsed().as_secs_f64();
+            if secs > 0.2 || n >= 1 << 20 {
+                return (n * directions.len() as u64) as f64 / secs.max(1e-9);
+            }
+            n *= 4;
         }
-        n *= 4;
+    };
+    let alt = task.observer_altitude_km;
+    let seed = job.render.seed;
+    Rates {
+        single: rate(&|n| {
+            render_directions(&scene, alt, &directions, n, seed, u64::MAX);
+        }),
+        shared: job.spectral_scene(task).map(|shared| {
+            rate(&|n| {
+                render_directions_spectral(&shared, alt, &directions, n, seed, u64::MAX);
+            })
+        }),
     }
 }
 
 /// Writes the plan: one line per task, then the totals.
 pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
     let paths = task_paths(job);
-    let rate = calibrate(job);
-    let hours = paths as f64 / rate / 3600.0;
+    let rates = calibrate(job);
+    let hours = task_core_seconds(job, &rates) / 3600.0;
     let sensor = match &job.render.sensor {
         Sensor::Directions(d) => format!("{} directions", d.len()),
         Sensor::Image(c) => {
@@ -83,10 +105,19 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
         job.render.albedos.len(),
         job.render.samples
     )?;
-    writeln!(
-        out,
-        "# throughput from a calibration render of task 0: {rate:.0} paths/s per core"
-    )?;
+    match rates.shared {
+        Some(shared) => writeln!(
+            out,
+            "# throughput from calibration renders of task 0: {shared:.0} shared spectral paths/s per core \
+             ({:.0} at one wavelength)",
+            rates.single
+        )?,
+        None => writeln!(
+            out,
+            "# throughput from a calibration render of task 0: {:.0} paths/s per core",
+            rates.single
+        )?,
+    }
     writeln!(
         out,
         "task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"
@@ -188,9 +219,8 @@ pub fn signal_lead(limit_seconds: u64) -> u64 {
 /// The wall time a unit needs at `rate` paths/s per core on `cpus` cores:
 /// twice the estimate plus 10 minutes (for startup, checkpoints and slow
 /// corners of the grid: low suns cost more than the calibration task).
-pub fn unit_seconds(job: &Job, shards: u64, rate: f64, cpus: usize) -> f64 {
-    let paths = task_paths(job) as f64 / shards as f64;
-    2.0 * paths / (rate * cpus as f64).max(1.0) + 600.0
+pub fn unit_seconds(job: &Job, shards: u64, rates: &Rates, cpus: usize) -> f64 {
+    2.0 * task_core_seconds(job, rates) / shards as f64 / cpus as f64 + 600.0
 }
 
 /// A ready sbatch script for an array over every unit of the job (task ×

@@ -53,6 +53,17 @@ pub enum EstimateKind {
     Pixels { source: Source },
 }
 
+impl EstimateKind {
+    /// The wavelengths the estimate's paths carry.
+    pub fn source(&self) -> Source {
+        match *self {
+            EstimateKind::Direction { source, .. }
+            | EstimateKind::Flux { source, .. }
+            | EstimateKind::Pixels { source } => source,
+        }
+    }
+}
+
 /// One estimate of a task: its kind, its stream keys and the number of
 /// values each sample gives.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -205,6 +216,21 @@ impl Layout {
             EstimateKind::Pixels { .. } => est.values * self.pixels,
             _ => est.values,
         }
+    }
+
+    /// Paths a shard traces along shared spectral paths (every channel at
+    /// once) and at single wavelengths, in that order: the two cost
+    /// differently per path (`plan`).
+    pub fn paths_by_source(&self, shard: Shard) -> (u64, u64) {
+        let mut paths = (0, 0);
+        for (e, estimate) in self.estimates.iter().enumerate() {
+            let n = self.paths_of(e, &self.range(e, shard));
+            match estimate.kind.source() {
+                Source::Shared => paths.0 += n,
+                Source::Wavelength(_) => paths.1 += n,
+            }
+        }
+        paths
     }
 
     /// Paths a shard traces in all.

@@ -138,8 +138,9 @@ fn plan_lists_every_task_with_its_cost() {
     assert!(text.contains("task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"));
     assert!(text.contains("0,vis030.0_elev+20.0_alt00000m,30.0,20.000,0,"));
     assert!(text.contains("1,vis060.0_elev+20.0_alt00000m"));
-    // 12×12 fisheye: the pixels reaching into the circle × 16 samples × 2
-    // wavelengths (the 2 albedos share the paths).
+    // 12×12 fisheye: the pixels reaching into the circle × 16 samples (the
+    // 2 wavelengths and the 2 albedos share the paths), costed at the rate
+    // of shared spectral paths.
     let inside = (0..144)
         .filter(|k| {
             let (i, j) = ((k % 12) as f64, (k / 12) as f64);
@@ -152,7 +153,23 @@ fn plan_lists_every_task_with_its_cost() {
             })
         })
         .count();
+    assert!(text.contains(&format!(",{},", inside * 16)), "{inside}: {text}");
+    assert!(text.contains("shared spectral paths/s per core"), "{text}");
+    // Without shared paths each wavelength has its own.
+    std::fs::write(
+        dir.path().join("separate.toml"),
+        JOB.replace("samples = 16\n", "samples = 16\nshared_wavelengths = false\n"),
+    )
+    .unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["plan", "separate.toml"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains(&format!(",{},", inside * 16 * 2)), "{inside}: {text}");
+    assert!(!text.contains("shared spectral"), "{text}");
 }
 
 #[test]
