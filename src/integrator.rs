@@ -550,10 +550,11 @@ pub(crate) fn phase_mixture(c: &PointCoefficients) -> PhaseMixture {
     if sigma_s <= 0.0 {
         return PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
     }
+    let inv = 1.0 / sigma_s;
     PhaseMixture::new(
-        c.sigma_rayleigh / sigma_s,
+        c.sigma_rayleigh * inv,
         c.rayleigh_depolarization,
-        c.sigma_aerosol_sca / sigma_s,
+        c.sigma_aerosol_sca * inv,
         c.aerosol_g,
     )
 }

@@ -226,7 +226,8 @@ pub struct PhaseMixture {
     rayleigh_polarized: f64,
     /// w_r·(1 − d): the isotropic part of Rayleigh's P11.
     rayleigh_isotropic: f64,
-    /// w_r·d·(1 − 2ρ)/(1 − ρ)·3/2: the factor of cos Θ in P44.
+    /// w_r·d·(1 − 2ρ)/(1 − ρ)·3/2 = w_r·(1 − 2ρ)/(1 + ρ/2)·3/2: the
+    /// factor of cos Θ in P44.
     rayleigh_circular: f64,
     aerosol: f64,
     g: f64,
@@ -236,11 +237,14 @@ impl PhaseMixture {
     /// The mixture with weights `w_rayleigh` and `w_aerosol` (summing to 1).
     pub fn new(w_rayleigh: f64, depolarization: f64, w_aerosol: f64, g: f64) -> PhaseMixture {
         let rho = depolarization;
-        let d = rayleigh_anisotropic_weight(rho);
+        // One division for both factors (this runs per wavelength and
+        // collision along shared spectral paths).
+        let inv = 1.0 / (1.0 + 0.5 * rho);
+        let d = (1.0 - rho) * inv;
         PhaseMixture {
             rayleigh_polarized: w_rayleigh * d * 0.75,
             rayleigh_isotropic: w_rayleigh * (1.0 - d),
-            rayleigh_circular: w_rayleigh * d * (1.0 - 2.0 * rho) / (1.0 - rho) * 1.5,
+            rayleigh_circular: w_rayleigh * (1.0 - 2.0 * rho) * inv * 1.5,
             aerosol: w_aerosol,
             g,
         }
