@@ -127,14 +127,14 @@ fn absolute_units_and_the_direct_sun() {
 #[test]
 fn plan_lists_every_task_with_its_cost() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("job.toml"), JOB).unwrap();
-    let out = atmosim()
-        .current_dir(dir.path())
-        .args(["plan", "job.toml"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    // `atmosim plan` of a job file's text: its standard output.
+    let plan = |file: &str, job: &str| {
+        std::fs::write(dir.path().join(file), job).unwrap();
+        let out = atmosim().current_dir(dir.path()).args(["plan", file]).output().unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let text = plan("job.toml", JOB);
     assert!(text.contains("task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"));
     assert!(text.contains("0,vis030.0_elev+20.0_alt00000m,30.0,20.000,0,"));
     assert!(text.contains("1,vis060.0_elev+20.0_alt00000m"));
@@ -156,18 +156,10 @@ fn plan_lists_every_task_with_its_cost() {
     assert!(text.contains(&format!(",{},", inside * 16)), "{inside}: {text}");
     assert!(text.contains("shared spectral paths/s per core"), "{text}");
     // Without shared paths each wavelength has its own.
-    std::fs::write(
-        dir.path().join("separate.toml"),
-        JOB.replace("samples = 16\n", "samples = 16\nshared_wavelengths = false\n"),
-    )
-    .unwrap();
-    let out = atmosim()
-        .current_dir(dir.path())
-        .args(["plan", "separate.toml"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = plan(
+        "separate.toml",
+        &JOB.replace("samples = 16\n", "samples = 16\nshared_wavelengths = false\n"),
+    );
     assert!(text.contains(&format!(",{},", inside * 16 * 2)), "{inside}: {text}");
     assert!(!text.contains("shared spectral"), "{text}");
 }
