@@ -905,13 +905,7 @@ fn run_uvspec(args: UvspecArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     if args.samples == 0 {
-        anyhow::bail!(atmosim::Error::InvalidValue {
-            file: "command line".into(),
-            key: "--samples".into(),
-            value: "0".into(),
-            reason: "no samples".into(),
-            valid: "at least 1".into(),
-        });
+        anyhow::bail!(no_samples());
     }
     if args.print_job {
         print!("{}", input.job_toml(args.samples, args.seed, args.full_spherical));
@@ -928,6 +922,17 @@ fn run_uvspec(args: UvspecArgs) -> anyhow::Result<()> {
     out.write_all(text.as_bytes()).context("writing to stdout")?;
     out.flush().context("writing to stdout")?;
     Ok(())
+}
+
+/// The error for `--samples 0`.
+fn no_samples() -> atmosim::Error {
+    atmosim::Error::InvalidValue {
+        file: "command line".into(),
+        key: "--samples".into(),
+        value: "0".into(),
+        reason: "no samples".into(),
+        valid: "at least 1".into(),
+    }
 }
 
 /// Runs the validation cases; Err (exit 1) when one fails.
@@ -965,13 +970,7 @@ fn run_validate(args: ValidateArgs) -> anyhow::Result<()> {
             .collect::<Result<Vec<_>, _>>()?
     };
     if args.samples == Some(0) {
-        anyhow::bail!(atmosim::Error::InvalidValue {
-            file: "command line".into(),
-            key: "--samples".into(),
-            value: "0".into(),
-            reason: "no samples".into(),
-            valid: "at least 1".into(),
-        });
+        anyhow::bail!(no_samples());
     }
     let pool = thread_pool(args.threads)?;
     let mut results = Vec::with_capacity(cases.len());

@@ -1,12 +1,10 @@
 //! `atmosim render` with image sensors, as a user runs it: the EXR read
 //! back, previews, skipping completed tasks, `plan`, and bad image jobs.
 
-use assert_cmd::Command;
-use atmosim::openexr::read_exr;
+mod common;
 
-fn atmosim() -> Command {
-    Command::cargo_bin("atmosim").unwrap()
-}
+use atmosim::openexr::read_exr;
+use common::atmosim;
 
 const JOB: &str = "[atmosphere]\nvisibility_km = [30.0, 60.0]\n[spectrum]\nwavelengths_nm = [450.0, 550.0]\n\
                    [sun]\nelevation_deg = 20.0\n[ground]\nalbedo = [0.0, 0.5]\n\
@@ -184,21 +182,11 @@ fn bad_image_jobs_are_refused_before_anything_is_written() {
         ("[observer]\naltitude_km = []\n", "observer.altitude_km"),
         ("[ground]\nalbedo = [0.1, 1.2]\n", "ground.albedo"),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(
-            dir.path().join("job.toml"),
-            format!("[spectrum]\nwavelengths_nm = [550.0]\n{text}"),
-        )
-        .unwrap();
-        let out = atmosim()
-            .current_dir(dir.path())
-            .args(["render", "job.toml"])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{key}: {err}");
-        assert!(err.contains(key), "{key}: {err}");
-        assert!(!dir.path().join("out").exists(), "{key}: files written");
+        common::assert_refused(
+            "render",
+            &format!("[spectrum]\nwavelengths_nm = [550.0]\n{text}"),
+            &[key],
+        );
     }
 }
 

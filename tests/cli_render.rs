@@ -1,11 +1,9 @@
 //! `atmosim render` run as a user runs it: the CSV outputs, --stdout, and
 //! bad render keys (exit code 2, nothing written).
 
-use assert_cmd::Command;
+mod common;
 
-fn atmosim() -> Command {
-    Command::cargo_bin("atmosim").unwrap()
-}
+use common::atmosim;
 
 const SMALL: &str = "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [550.0]\n\
                      [sun]\nzenith_deg = 30.0\n[ground]\nalbedo = 0.3\n\
@@ -81,24 +79,12 @@ fn bad_render_keys_are_refused_before_anything_is_written() {
         ("[render]\nsamples = 0\n", "render.samples"),
         ("[render]\nmedium = \"lumpy\"\n", "lumpy"),
     ] {
-        assert_refused(&format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}"), &[key]);
+        common::assert_refused(
+            "render",
+            &format!("[spectrum]\nwavelengths_nm = [550.0]\n{extra}"),
+            &[key],
+        );
     }
-}
-
-/// `atmosim render` of `job` exits with code 2, its message names every
-/// one of `words`, and nothing is written.
-fn assert_refused(job: &str, words: &[&str]) {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("job.toml"), job).unwrap();
-    let out = atmosim()
-        .current_dir(dir.path())
-        .args(["render", "job.toml"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{job}: {err}");
-    assert!(words.iter().all(|w| err.contains(w)), "{words:?} not named: {err}");
-    assert!(!dir.path().join("out").exists());
 }
 
 #[test]
@@ -166,7 +152,7 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "245 to 295 nm leaves",
         ),
     ] {
-        assert_refused(&format!("{base}{extra}"), &[key, hint]);
+        common::assert_refused("render", &format!("{base}{extra}"), &[key, hint]);
     }
 }
 

@@ -1,12 +1,10 @@
 //! `atmosim transmittance` as a user runs it: per-task CSV and EXR with
 //! metadata, and bad grids refused with exit code 2.
 
-use assert_cmd::Command;
-use atmosim::openexr::read_exr;
+mod common;
 
-fn atmosim() -> Command {
-    Command::cargo_bin("atmosim").unwrap()
-}
+use atmosim::openexr::read_exr;
+use common::atmosim;
 
 #[test]
 fn writes_csv_and_exr_per_task_with_metadata() {
@@ -79,16 +77,6 @@ fn bad_grids_are_refused() {
         ("altitudes_km = [1.0]\n", "transmittance.altitudes_km"),
         ("estimator = \"guess\"\n", "guess"),
     ] {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("job.toml"), format!("[transmittance]\n{section}")).unwrap();
-        let out = atmosim()
-            .current_dir(dir.path())
-            .args(["transmittance", "job.toml"])
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{key}: {err}");
-        assert!(err.contains(key), "{key}: {err}");
-        assert!(!dir.path().join("out").exists());
+        common::assert_refused("transmittance", &format!("[transmittance]\n{section}"), &[key]);
     }
 }

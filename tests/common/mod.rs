@@ -1,7 +1,8 @@
 //! Helpers shared by the validation tests: reading the project's reference
 //! tables, building jobs, and the z statistics of the issue (z = difference
 //! over the combined standard error, Šidák threshold for a 1 % family-wise
-//! false-alarm rate), and reading back the CSV outputs of a render.
+//! false-alarm rate), reading back the CSV outputs of a render, and
+//! running the binary as a user does.
 #![allow(dead_code)]
 
 use std::path::Path;
@@ -126,4 +127,25 @@ pub fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
             (p.strip_prefix(out).unwrap().display().to_string(), values)
         })
         .collect()
+}
+
+/// The atmosim binary, run as a user runs it.
+pub fn atmosim() -> assert_cmd::Command {
+    assert_cmd::Command::cargo_bin("atmosim").unwrap()
+}
+
+/// `atmosim COMMAND job.toml` of `job`, in a fresh directory, exits with
+/// code 2, its message names every one of `words`, and nothing is written.
+pub fn assert_refused(command: &str, job: &str, words: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args([command, "job.toml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{job}: {err}");
+    assert!(words.iter().all(|w| err.contains(w)), "{words:?} not named: {err}");
+    assert!(!dir.path().join("out").exists(), "{job}: files written");
 }
