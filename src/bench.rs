@@ -9,8 +9,9 @@
 //! (320–760 nm by 44) and eleven 40 nm bands from 320 nm along shared
 //! paths against 550 nm alone at the same path count, with the relative
 //! standard errors of the first and last channels against dedicated runs
-//! of those channels alone scaled to equal time; and the throughput of the
-//! pool against one thread.
+//! of those channels alone scaled to equal time; the first vertex split
+//! (the default) against an analog first vertex, cost and variance; and
+//! the throughput of the pool against one thread.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -190,7 +191,7 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     let alt = single.observer_altitude_km;
     let scene = single.scene(0);
     render_directions(&scene, alt, dirs, 256, 7, 7);
-    let (t_one, _) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
+    let (t_one, split) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
     let albedos = variant("550.0", "[0.0, 0.3, 0.6, 1.0]")?;
     let scene4 = albedos.scene(0);
     let (t_four, _) = timed(|| render_directions_all(&scene4, alt, dirs, samples, seed, 0));
@@ -222,6 +223,30 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     for spectrum in &spectra {
         shared_ratios(spectrum, samples, t_one, out)?;
     }
+    let analog = Job::parse(
+        &REFERENCE_JOB.replace("polarized = true", "polarized = true\nfirst_vertex_splitting = false"),
+        "throughput_reference.toml",
+        Path::new("."),
+    )?;
+    let analog_scene = analog.scene(0);
+    let (t_analog, unsplit) = timed(|| render_directions(&analog_scene, alt, dirs, samples, seed, 0));
+    let variance_ratio = |s: usize| {
+        split
+            .iter()
+            .zip(&unsplit)
+            .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
+            .sum::<f64>()
+            / split.len() as f64
+    };
+    writeln!(
+        out,
+        "analog first vertex: {t_analog:.3} s; split/analog cost ratio {:.3}, variance ratio (mean over directions) I {:.3}, Q {:.3}, U {:.3}",
+        t_one / t_analog,
+        variance_ratio(0),
+        variance_ratio(1),
+        variance_ratio(2)
+    )
+    .map_err(io)?;
     let (t_serial, _) = serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)));
     writeln!(
         out,

@@ -56,7 +56,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use crate::integrator::{
-    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component,
+    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component, quarter_turn,
     reference_albedo, reflects, scattering_frame,
 };
 use crate::medium::{MediumModel, PointCoefficients, density_steps};
@@ -150,7 +150,7 @@ impl SpectralRadiances {
 
 /// A path's state; its per-wavelength vectors are reused from sample to
 /// sample on each thread ([`WORK`]).
-#[derive(Default)]
+#[derive(Default, Clone)]
 struct Path {
     /// Per wavelength: its path integrand over the hero's path density.
     throughput: Vec<Mueller>,
@@ -181,10 +181,12 @@ struct Path {
     exit: Option<ShellExit>,
 }
 
-/// A thread's reusable state: the path and, for bands, its spectra.
+/// A thread's reusable state: the path, the spare the path's first vertex
+/// splits into, and, for bands, its spectra.
 #[derive(Default)]
 struct Work {
     path: Path,
+    spare: Path,
     spectra: ChannelSpectra,
 }
 
@@ -211,6 +213,13 @@ impl Path {
         }
         self.tau_basis.resize(basis, 0.0);
         self.chords.resize(levels, 0.0);
+    }
+
+    /// Halves every wavelength's throughput (one of two branches).
+    fn halve(&mut self) {
+        for t in self.throughput.iter_mut() {
+            *t = *t * 0.5;
+        }
     }
 
     /// Multiplies wavelength `w`'s density ratio by `k`.
@@ -510,7 +519,7 @@ impl SpectralScene {
         sampler: &mut Sampler,
     ) -> SpectralRadiances {
         WORK.with_borrow_mut(|work| {
-            let Work { path, spectra } = work;
+            let Work { path, spare, spectra } = work;
             let spectra = match &self.fixed {
                 Some(fixed) => fixed,
                 None => {
@@ -536,11 +545,11 @@ impl SpectralScene {
                         layer,
                     },
                     sampler,
+                    Some(spare),
                 ),
                 None => {
-                    if altitude_km <= levels[0] && view.dot(up) < 0.0 && self.ground(path, spectra, origin, sampler) {
-                        let dir = cosine_hemisphere(up, sampler.next2());
-                        self.trace(path, spectra, Ray { origin, dir, layer: 0 }, sampler);
+                    if altitude_km <= levels[0] && view.dot(up) < 0.0 {
+                        self.trace_on_from_ground(path, spectra, origin, sampler);
                     }
                 }
             }
@@ -560,14 +569,41 @@ impl SpectralScene {
         })
     }
 
-    fn trace(&self, path: &mut Path, spectra: &ChannelSpectra, mut ray: Ray, sampler: &mut Sampler) {
+    /// Follows a path from `ray` to its end. With a `spare` path to split
+    /// into and [`Settings::first_vertex_splitting`], the sensor's first
+    /// vertex is split as in the single-wavelength tracer: a flight toward
+    /// a reflecting ground follows both ends (the ground with weight
+    /// e^(−τ_λ) at every λ, a decision taken for all wavelengths alike, so
+    /// no density changes; the collision forced), and the first scattering
+    /// goes on in the sampled direction and its quarter turn, which every
+    /// wavelength's phase function gives the same density.
+    fn trace(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        mut ray: Ray,
+        sampler: &mut Sampler,
+        mut spare: Option<&mut Path>,
+    ) {
         let n = self.channels.len();
+        if !self.settings.first_vertex_splitting {
+            spare = None;
+        }
         loop {
             let Some(end) = self.exit_depths(path, spectra, &ray) else {
                 return;
             };
-            let analog = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
-            match self.flight(path, spectra, &ray, end, analog, sampler) {
+            let to_ground = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
+            let split = to_ground && path.order == 0 && spare.is_some();
+            if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
+                branch.clone_from(path);
+                for (m, tau) in branch.throughput.iter_mut().zip(&path.tau_exit) {
+                    *m = *m * (-tau).exp();
+                }
+                self.trace_on_from_ground(branch, spectra, ray.origin + t * ray.dir, sampler);
+                std::mem::swap(&mut path.radiance, &mut branch.radiance);
+            }
+            match self.flight(path, spectra, &ray, end, to_ground && !split, sampler) {
                 Outcome::Escaped => return,
                 Outcome::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
@@ -599,26 +635,73 @@ impl SpectralScene {
                     let cos = k_in.dot(k_out);
                     path.matrices.clear();
                     path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(cos)));
-                    let inv_mean_p11 = n as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
-                    let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
-                    for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
-                        *t = if self.settings.polarized {
-                            rotation.right_of_then(t, &m.scaled(inv_mean_p11))
-                        } else {
-                            *t * Mueller::depolarizer(m.p11 * inv_mean_p11)
-                        };
+                    if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
+                        branch.clone_from(path);
+                        branch.halve();
+                        if let Some(next) = self.scattered(branch, quarter_turn(k_out, k_in), k_out, x, layer, sampler)
+                        {
+                            self.trace(branch, spectra, next, sampler, None);
+                        }
+                        std::mem::swap(&mut path.radiance, &mut branch.radiance);
+                        path.halve();
                     }
-                    path.frame_e1 = e1_in;
-                    if !path.roulette(sampler) {
-                        return;
+                    match self.scattered(path, k_in, k_out, x, layer, sampler) {
+                        Some(next) => ray = next,
+                        None => return,
                     }
-                    ray = Ray {
-                        origin: x,
-                        dir: -k_in,
-                        layer,
-                    };
                 }
             }
+        }
+    }
+
+    /// Scatters the path at `x` (in `layer`) from light along k_in into
+    /// k_out with every wavelength's matrix at the last collision
+    /// (`path.matrices`); the ray it goes on along, or `None` when roulette
+    /// ends it.
+    fn scattered(
+        &self,
+        path: &mut Path,
+        k_in: DVec3,
+        k_out: DVec3,
+        x: DVec3,
+        layer: usize,
+        sampler: &mut Sampler,
+    ) -> Option<Ray> {
+        let inv_mean_p11 = path.matrices.len() as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
+        let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
+        for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
+            *t = if self.settings.polarized {
+                rotation.right_of_then(t, &m.scaled(inv_mean_p11))
+            } else {
+                *t * Mueller::depolarizer(m.p11 * inv_mean_p11)
+            };
+        }
+        path.frame_e1 = e1_in;
+        if !path.roulette(sampler) {
+            return None;
+        }
+        Some(Ray {
+            origin: x,
+            dir: -k_in,
+            layer,
+        })
+    }
+
+    /// A ground vertex at `x` and the rest of the path from it (unsplit).
+    fn trace_on_from_ground(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, sampler: &mut Sampler) {
+        if self.ground(path, spectra, x, sampler) {
+            let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
+            self.trace(
+                path,
+                spectra,
+                Ray {
+                    origin: x,
+                    dir,
+                    layer: 0,
+                },
+                sampler,
+                None,
+            );
         }
     }
 

@@ -256,15 +256,37 @@ pub struct ForcedFlight {
     /// for an analog flight): distances for further points with the same
     /// distribution come from [`forced_distance`].
     pub forced_probability: Option<f64>,
+    /// For [`GroundEnd::Split`]: the ground the ray reaches, at distance
+    /// `t`, and the weight e^(−τ) of that second branch, which the caller
+    /// follows as well as the (forced) collision.
+    pub ground_branch: Option<(f64, f64)>,
+}
+
+/// What a forced flight does with a ray that reaches the ground.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GroundEnd {
+    /// A black ground: the collision is forced (weight 1 − e^(−τ)).
+    Absorbs,
+    /// A reflecting ground: the flight is analog, reaching the ground with
+    /// probability e^(−τ) and colliding otherwise, both with weight 1.
+    Analog,
+    /// A reflecting ground, both ends followed: the collision is forced
+    /// (weight 1 − e^(−τ)) and the ground is a second branch of weight
+    /// e^(−τ) ([`ForcedFlight::ground_branch`]). No choice between the
+    /// two is left to chance, which removes the variance of that choice
+    /// (for a bright ground seen through a thin layer the ground carries
+    /// the intensity and the collisions the polarisation).
+    Split,
 }
 
 /// Collision sampling with forced collisions in a piecewise-constant medium
 /// (Cashwell & Everett 1959; Mayer 2009 uses it in MYSTIC): when the end of
 /// the ray contributes nothing (it leaves through the top, or hits a black
-/// ground: `ground_counts = false`), the collision distance is drawn from
+/// ground: [`GroundEnd::Absorbs`]), the collision distance is drawn from
 /// the exponential truncated to the ray's optical depth τ and the path
-/// carries the weight 1 − e^(−τ), so every path scatters. Otherwise the
-/// flight is analog (the same distribution as delta tracking). τ comes from
+/// carries the weight 1 − e^(−τ), so every path scatters. A ray reaching a
+/// reflecting ground is analog (the same distribution as delta tracking)
+/// or split into both ends ([`GroundEnd`]). τ comes from
 /// [`exit_optical_depth`]; the collision is found by walking the segments
 /// only as far as it ([`locate_on_ray`]).
 ///
@@ -277,7 +299,7 @@ pub fn forced_flight(
     geometry: &Geometry,
     ray: &Ray,
     sampler: &mut Sampler,
-    ground_counts: bool,
+    ground: GroundEnd,
 ) -> ForcedFlight {
     match *geometry {
         Geometry::Spherical { radius_km } if medium.is_piecewise_constant() => {
@@ -295,13 +317,13 @@ pub fn forced_flight(
             half_chords_into(radius_km, &levels[range], exit.h, chords);
             let tau_exit = exit.depth(medium.sigma_maj(ray.layer), medium.steps(), chords).max(0.0);
             let end = exit.end(radius_km, levels, ray);
-            forced_from(tau_exit, end, sampler, ground_counts, |target| {
+            forced_from(tau_exit, end, sampler, ground, |target| {
                 exit.locate(medium.sigma_majorants(), chords, target)
             })
         }
         _ => {
             let (tau_exit, end) = exit_optical_depth(medium, geometry, ray);
-            forced_from(tau_exit, end, sampler, ground_counts, |target| {
+            forced_from(tau_exit, end, sampler, ground, |target| {
                 locate_on_ray(medium, geometry, ray, target)
             })
         }
@@ -318,44 +340,44 @@ fn forced_from(
     tau_exit: f64,
     end: WalkEnd,
     sampler: &mut Sampler,
-    ground_counts: bool,
+    ground: GroundEnd,
     locate: impl FnOnce(f64) -> Collision,
 ) -> ForcedFlight {
     let u = sampler.next_f64();
-    let (tau_target, weight, forced_probability) = match end {
-        WalkEnd::Ground { t } if ground_counts => {
+    let only = |end| ForcedFlight {
+        end,
+        weight: 1.0,
+        forced_probability: None,
+        ground_branch: None,
+    };
+    let ground_branch = match end {
+        WalkEnd::Ground { t } if ground == GroundEnd::Analog => {
             let tau = -(1.0 - u).ln();
             if tau >= tau_exit {
-                return ForcedFlight {
-                    end: FlightEnd::Ground { t },
-                    weight: 1.0,
-                    forced_probability: None,
-                };
+                return only(FlightEnd::Ground { t });
             }
-            (tau, 1.0, None)
+            return ForcedFlight {
+                end: FlightEnd::Collided(locate(tau)),
+                ..only(FlightEnd::Endless)
+            };
         }
-        _ => {
-            if tau_exit <= 0.0 {
-                let end = match end {
-                    WalkEnd::Ground { t } => FlightEnd::Ground { t },
-                    WalkEnd::Top { t } => FlightEnd::Top { t },
-                    _ => FlightEnd::Endless,
-                };
-                return ForcedFlight {
-                    end,
-                    weight: 1.0,
-                    forced_probability: None,
-                };
-            }
-            // P(collide before the end) = 1 − e^(−τ), computed without cancellation.
-            let p = -(-tau_exit).exp_m1();
-            (forced_distance(u, p), p, Some(p))
-        }
+        WalkEnd::Ground { t } if ground == GroundEnd::Split => Some((t, (-tau_exit).exp())),
+        _ => None,
     };
+    if tau_exit <= 0.0 {
+        return only(match end {
+            WalkEnd::Ground { t } => FlightEnd::Ground { t },
+            WalkEnd::Top { t } => FlightEnd::Top { t },
+            _ => FlightEnd::Endless,
+        });
+    }
+    // P(collide before the end) = 1 − e^(−τ), computed without cancellation.
+    let p = -(-tau_exit).exp_m1();
     ForcedFlight {
-        end: FlightEnd::Collided(locate(tau_target)),
-        weight,
-        forced_probability,
+        end: FlightEnd::Collided(locate(forced_distance(u, p))),
+        weight: p,
+        forced_probability: Some(p),
+        ground_branch,
     }
 }
 
@@ -1138,7 +1160,7 @@ mod tests {
         let (tau_exit, _) = optical_depth(&m, &g, &ray);
         let n = 40_000u64;
         let flights: Vec<ForcedFlight> = (0..n)
-            .map(|k| forced_flight(&m, &g, &ray, &mut Sampler::new(&[14, k]), false))
+            .map(|k| forced_flight(&m, &g, &ray, &mut Sampler::new(&[14, k]), GroundEnd::Absorbs))
             .collect();
         for f in &flights {
             assert!((f.weight - (1.0 - (-tau_exit).exp())).abs() < 1e-14);
@@ -1161,7 +1183,7 @@ mod tests {
         };
         let (tau_g, _) = optical_depth(&m, &g, &down);
         let (mean, se, _) = mean_se((0..n).map(|k| {
-            let f = forced_flight(&m, &g, &down, &mut Sampler::new(&[15, k]), true);
+            let f = forced_flight(&m, &g, &down, &mut Sampler::new(&[15, k]), GroundEnd::Analog);
             assert_eq!(f.weight, 1.0);
             if matches!(f.end, FlightEnd::Ground { .. }) {
                 1.0
@@ -1170,6 +1192,32 @@ mod tests {
             }
         }));
         assert!((mean - (-tau_g).exp()).abs() < 4.0 * se);
+        // Split, the collision is forced and the ground is a second branch
+        // of weight e^(−τ): E[collision weight · 1(t > s)] + e^(−τ) = e^(−τ(s)).
+        let ground_t = match exit_optical_depth(&m, &g, &down).1 {
+            WalkEnd::Ground { t } => t,
+            end => panic!("{end:?}"),
+        };
+        let split: Vec<ForcedFlight> = (0..n)
+            .map(|k| forced_flight(&m, &g, &down, &mut Sampler::new(&[16, k]), GroundEnd::Split))
+            .collect();
+        for f in &split {
+            assert!((f.weight + (-tau_g).exp_m1()).abs() < 1e-12);
+            let (t, w) = f.ground_branch.expect("a ground branch");
+            assert!(
+                (t - ground_t).abs() < 1e-12 && (w - (-tau_g).exp()).abs() < 1e-12,
+                "{t} {w}"
+            );
+        }
+        for dist in [0.1, 0.3, 0.5] {
+            let tau = optical_depth_to(&m, &g, &down, dist);
+            let (mean, se, _) = mean_se(split.iter().map(|f| match f.end {
+                FlightEnd::Collided(c) if c.t > dist => f.weight,
+                _ => 0.0,
+            }));
+            let exact = (-tau).exp() - (-tau_g).exp();
+            assert!((mean - exact).abs() < 4.0 * se, "{dist} km: {mean} ± {se} vs {exact}");
+        }
     }
 
     #[test]

@@ -203,6 +203,7 @@ pub(super) fn resolve(
                 RawSunSampling::SunAware => SunSampling::SunAware,
                 RawSunSampling::Collision => SunSampling::Collision,
             },
+            first_vertex_splitting: render.first_vertex_splitting.unwrap_or(true),
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {
             RawMedium::Layered => MediumModel::Layered,
