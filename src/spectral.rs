@@ -24,12 +24,16 @@
 //! The price, measured (README, `bench --ratios`): a path whose hero is
 //! 550 nm is nearly useless at 320 nm (23× the error of a 320 nm path), so
 //! with eleven channels from 320 to 760 nm the 320 nm error at equal time
-//! is about 3× that of a dedicated run. Spectral tracking against a
+//! is about 3.5× that of a dedicated run. Spectral tracking against a
 //! majorant over the wavelengths was the alternative; with Rayleigh's λ⁻⁴ spread (σ differs
 //! ×4 between 320 and 760 nm in the thin upper layers, ×20 in extinction)
 //! its null-collision weights need history-aware probabilities to stay
 //! bounded, while the hero scheme is bounded by construction and reuses
 //! the forced-collision flights of the single-wavelength tracer.
+//!
+//! The sensor's first vertex is split as in the single-wavelength tracer
+//! (`Settings::first_vertex_splitting`, `SpectralScene::trace`), into a
+//! spare path kept per thread.
 //!
 //! Channels may be bands (`band_width_nm` > 0): each path then draws its
 //! own wavelength inside each band, stratified over the estimate's samples

@@ -617,7 +617,7 @@ impl ShellExit {
 
     /// The point at optical depth `target` along the ray, for σ per layer
     /// `sigma` and the half chords `chords` of [`ShellExit::levels`]: the
-    /// search of [`locate`] over [`ShellExit::boundaries`] written out as two
+    /// search of [`locate`] over `ShellExit::boundaries` written out as two
     /// plain loops (the hot path of forced flights: 7 % faster on the
     /// throughput case than the iterator, 10 % faster than `try_for_each`
     /// over it); the last segment's end if rounding leaves the target beyond
