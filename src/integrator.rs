@@ -307,13 +307,13 @@ impl Scene {
                         let mut branch = path.clone();
                         branch.throughput = branch.throughput * 0.5;
                         let k_quarter = quarter_turn(k_out, k_in);
-                        if let Some(next) = self.scattered(&mut branch, &w, k_quarter, k_out, x, c.layer, sampler) {
+                        if let Some(next) = self.scattered(&mut branch, &w, k_quarter, k_out, (x, c.layer), sampler) {
                             self.trace(&mut branch, next, sampler);
                         }
                         path.radiance = branch.radiance;
                         path.throughput = path.throughput * 0.5;
                     }
-                    match self.scattered(path, &w, k_in, k_out, x, c.layer, sampler) {
+                    match self.scattered(path, &w, k_in, k_out, (x, c.layer), sampler) {
                         Some(next) => ray = next,
                         None => return,
                     }
@@ -336,18 +336,16 @@ impl Scene {
         }
     }
 
-    /// Scatters the path at `x` (in `layer`) from light along k_in into
-    /// k_out with the weighted matrix `w`; the ray it goes on along, or
-    /// `None` when roulette ends it.
-    #[allow(clippy::too_many_arguments)]
+    /// Scatters the path at point `x` of `layer` from light along k_in
+    /// into k_out with the weighted matrix `w`; the ray it goes on along,
+    /// or `None` when roulette ends it.
     fn scattered(
         &self,
         path: &mut Path,
         w: &PhaseMatrix,
         k_in: DVec3,
         k_out: DVec3,
-        x: DVec3,
-        layer: usize,
+        (x, layer): (DVec3, usize),
         sampler: &mut Sampler,
     ) -> Option<Ray> {
         path.scatter(w, k_in, k_out, self.settings.polarized);
