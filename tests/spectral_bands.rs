@@ -7,9 +7,9 @@
 
 mod common;
 
-use atmosim::render::{Direction, Tally, render_directions_all, render_directions_spectral};
+use atmosim::render::{Tally, render_directions_all, render_directions_spectral};
 use atmosim::solar::SolarSpectrum;
-use common::{Comparison, job};
+use common::{Comparison, directions, job};
 
 /// Six-point Gauss–Legendre nodes and weights on [−1, 1].
 const GAUSS_6: [(f64, f64); 6] = [
@@ -33,15 +33,8 @@ fn combine(renders: &[Vec<Vec<Tally>>], weights: &[f64], a: usize, d: usize, s: 
     (mean, var.sqrt())
 }
 
-fn directions() -> Vec<Direction> {
-    [(0.0, 0.0), (60.0, 0.0), (80.0, 150.0), (120.0, 30.0)]
-        .iter()
-        .map(|&(z, a)| Direction {
-            view_zenith_deg: z,
-            azimuth_deg: a,
-        })
-        .collect()
-}
+/// The viewing directions of these tests.
+const DIRECTIONS: [(f64, f64); 4] = [(0.0, 0.0), (60.0, 0.0), (80.0, 150.0), (120.0, 30.0)];
 
 #[test]
 fn band_channels_estimate_the_band_averaged_radiance() {
@@ -58,7 +51,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
         ),
     ];
     let samples = common::samples(30_000);
-    let dirs = directions();
+    let dirs = directions(&DIRECTIONS);
     let mut cmp = Comparison::default();
     for (c, (atmosphere, channels)) in cases.iter().enumerate() {
         let list = |f: &dyn Fn(&(f64, f64)) -> f64| {
@@ -134,7 +127,7 @@ fn a_wide_band_differs_from_its_centre_wavelength() {
         "{base}[spectrum]\nwavelengths_nm = [380.0]\nband_width_nm = 120.0\n"
     ));
     let centre = job(&format!("{base}[spectrum]\nwavelengths_nm = [380.0]\n"));
-    let dirs = &directions()[..1];
+    let dirs = &directions(&DIRECTIONS)[..1];
     let h = band.observer_altitude_km;
     let b = render_directions_spectral(&band.spectral_scene(&band.tasks[0]).unwrap(), h, dirs, 100_000, 1, 0);
     let c = render_directions_all(&centre.scene(0), h, dirs, 100_000, 2, 0);
@@ -178,7 +171,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
     ));
     let solar = banded.solar.clone().expect("absolute units load the spectrum");
     let samples = common::samples(30_000);
-    let dirs = directions();
+    let dirs = directions(&DIRECTIONS);
     let h = banded.observer_altitude_km;
     let shared = render_directions_spectral(
         &banded.spectral_scene(&banded.tasks[0]).unwrap(),

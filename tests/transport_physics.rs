@@ -6,7 +6,7 @@
 mod common;
 
 use atmosim::render::{Direction, render_directions, render_fluxes};
-use common::{Comparison, job, layers_toml};
+use common::{Comparison, directions, job, layers_toml};
 
 #[test]
 fn conservative_slab_over_white_ground_reflects_all_incident_flux() {
@@ -58,13 +58,7 @@ fn huge_radius_spherical_shells_agree_with_plane_parallel() {
     let rest = "[ground]\nalbedo = 0.3\n[sun]\nzenith_deg = 50.0\n[observer]\naltitude_km = 1.0\n";
     let pp = job(&format!("[planet]\ngeometry = \"plane_parallel\"\n{layers}{rest}"));
     let sph = job(&format!("[planet]\nradius_km = 1.0e6\n{layers}{rest}"));
-    let dirs: Vec<Direction> = [(0.0, 0.0), (40.0, 30.0), (75.0, 120.0), (110.0, 200.0), (160.0, 90.0)]
-        .iter()
-        .map(|&(z, a)| Direction {
-            view_zenith_deg: z,
-            azimuth_deg: a,
-        })
-        .collect();
+    let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (40.0, 30.0), (75.0, 120.0), (110.0, 200.0), (160.0, 90.0)]);
     let a = render_directions(&pp.scene(0), 1.0, &dirs, 100_000, 1, 0);
     let b = render_directions(&sph.scene(0), 1.0, &dirs, 100_000, 2, 0);
     let mut cmp = Comparison::default();
@@ -155,20 +149,14 @@ fn sun_aware_and_collision_sun_connections_agree_for_a_low_sun() {
                 "[spectrum]\nwavelengths_nm = [450.0]\n[sun]\nelevation_deg = {elevation:?}\n[ground]\nalbedo = 0.3\n\
                  [observer]\naltitude_km = 1.0\n[render]\nsun_sampling = \"{mode}\"\nseed = {seed}\n"
             ));
-            let dirs: Vec<Direction> = [
+            let dirs: Vec<Direction> = directions(&[
                 (0.0, 0.0),
                 (80.0, 0.0),
                 (88.0, 20.0),
                 (60.0, 120.0),
                 (95.0, 180.0),
                 (150.0, 45.0),
-            ]
-            .iter()
-            .map(|&(z, a)| Direction {
-                view_zenith_deg: z,
-                azimuth_deg: a,
-            })
-            .collect();
+            ]);
             render_directions(&j.scene(0), 1.0, &dirs, 20_000, seed, 0)
         };
         let (a, b) = (run("collision", 1), run("sun_aware", 2));
@@ -198,13 +186,7 @@ fn all_albedos_from_one_render_equal_separate_renders() {
          rayleigh_depolarization = 0.03\ntau_aerosol = 0.2\naerosol_ssa = 0.9\naerosol_g = 0.7\n[sun]\nzenith_deg = 50.0\n",
     ] {
         let albedos = [0.0, 0.3, 0.6, 1.0];
-        let dirs: Vec<Direction> = [(0.0, 0.0), (70.0, 30.0), (120.0, 90.0), (170.0, 180.0)]
-            .iter()
-            .map(|&(z, a)| Direction {
-                view_zenith_deg: z,
-                azimuth_deg: a,
-            })
-            .collect();
+        let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (70.0, 30.0), (120.0, 90.0), (170.0, 180.0)]);
         let all = job(&format!(
             "{base}[ground]\nalbedo = [0.0, 0.3, 0.6, 1.0]\n[observer]\naltitude_km = 0.5\n"
         ));
@@ -255,13 +237,7 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
             format!("{text}[render]\nfirst_vertex_splitting = false\n")
         };
         let analog = job(&analog);
-        let dirs: Vec<Direction> = [(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]
-            .iter()
-            .map(|&(z, a)| Direction {
-                view_zenith_deg: z,
-                azimuth_deg: a,
-            })
-            .collect();
+        let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]);
         let h = j.observer_altitude_km;
         let shared = atmosim::render::render_directions_spectral(&spectral, h, &dirs, 20_000, 1, 0);
         let mut cmp = Comparison::default();
@@ -330,20 +306,14 @@ fn first_vertex_splitting_is_unbiased_and_cuts_polarisation_noise() {
                 aerosol_g = 0.7\n[sun]\nzenith_deg = 40.0\n";
     let shells = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
                   [sun]\nelevation_deg = 30.0\n";
-    let dirs: Vec<Direction> = [
+    let dirs: Vec<Direction> = directions(&[
         (0.0, 0.0),
         (60.0, 90.0),
         (84.0, 30.0),
         (96.0, 0.0),
         (120.0, 60.0),
         (170.0, 180.0),
-    ]
-    .iter()
-    .map(|&(z, a)| Direction {
-        view_zenith_deg: z,
-        azimuth_deg: a,
-    })
-    .collect();
+    ]);
     let mut cmp = Comparison::default();
     let (mut split_var, mut analog_var) = (0.0, 0.0);
     for (base, altitude) in [(slab, 0.5), (shells, 2.0)] {

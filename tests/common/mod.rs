@@ -32,6 +32,18 @@ pub fn samples(default: u64) -> u64 {
         .unwrap_or(default)
 }
 
+/// Viewing directions from (view zenith, azimuth) pairs in degrees.
+#[allow(dead_code)]
+pub fn directions(pairs: &[(f64, f64)]) -> Vec<Direction> {
+    pairs
+        .iter()
+        .map(|&(z, a)| Direction {
+            view_zenith_deg: z,
+            azimuth_deg: a,
+        })
+        .collect()
+}
+
 /// Renders `directions` of wavelength index 0 of `job` at `altitude_km`.
 pub fn render(job: &Job, altitude_km: f64, directions: &[Direction], samples: u64) -> Vec<Tally> {
     render_directions(&job.scene(0), altitude_km, directions, samples, job.render.seed, 0)
