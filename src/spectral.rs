@@ -818,7 +818,7 @@ impl SpectralScene {
         // roots), or walked in a slab.
         match &path.exit {
             Some(exit) => {
-                let _ = exit.segments(&path.chords).try_for_each(visit);
+                let _ = exit.try_for_each_segment(&path.chords, visit);
             }
             None => {
                 tracking::walk(&self.geometry, &self.levels_km, ray, visit);

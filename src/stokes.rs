@@ -225,8 +225,15 @@ impl Mul<Stokes> for Mueller {
 impl Mul<f64> for Mueller {
     type Output = Mueller;
 
-    fn mul(self, a: f64) -> Mueller {
-        Mueller(self.0.map(|row| row.map(|x| x * a)))
+    fn mul(mut self, a: f64) -> Mueller {
+        // A plain loop: `array::map` here was left uninlined (4 % of a
+        // shared spectral path's time).
+        for row in self.0.iter_mut() {
+            for x in row.iter_mut() {
+                *x *= a;
+            }
+        }
+        self
     }
 }
 
@@ -260,8 +267,11 @@ impl AddAssign for Mueller {
 impl Mul<f64> for Stokes {
     type Output = Stokes;
 
-    fn mul(self, a: f64) -> Stokes {
-        Stokes(self.0.map(|x| x * a))
+    fn mul(mut self, a: f64) -> Stokes {
+        for x in self.0.iter_mut() {
+            *x *= a;
+        }
+        self
     }
 }
 

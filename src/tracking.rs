@@ -615,51 +615,68 @@ impl ShellExit {
             .chain(up.map(move |k| (k - 1, -b + chords[k - start])))
     }
 
-    /// The point at optical depth `target` along the ray, for σ per layer
-    /// `sigma` and the half chords `chords` of [`ShellExit::levels`]: the
-    /// search of [`locate`] over `ShellExit::boundaries` written out as two
-    /// plain loops (the hot path of forced flights: 7 % faster on the
-    /// throughput case than the iterator, 10 % faster than `try_for_each`
-    /// over it); the last segment's end if rounding leaves the target beyond
-    /// the ray's end.
-    pub fn locate(&self, sigma: &[f64], chords: &[f64], target: f64) -> Collision {
+    /// Calls `f` on the ray's layer segments in order (those of
+    /// [`ShellExit::segments`], bit for bit) until it breaks: two plain
+    /// loops, as the hot paths of forced flights want them (7 % faster on
+    /// the throughput case than the iterator, 10 % faster than
+    /// `try_for_each` over it).
+    #[inline]
+    pub fn try_for_each_segment<B>(
+        &self,
+        chords: &[f64],
+        mut f: impl FnMut(Segment) -> ControlFlow<B>,
+    ) -> ControlFlow<B> {
         let start = self.levels().start;
         let b = self.b;
         let mut t = 0.0;
+        let (down, up) = self.runs();
+        for k in down.rev() {
+            let t1 = (-b - chords[k - start]).max(t);
+            f(Segment { t0: t, t1, layer: k })?;
+            t = t1;
+        }
+        for k in up {
+            let t1 = (-b + chords[k - start]).max(t);
+            f(Segment {
+                t0: t,
+                t1,
+                layer: k - 1,
+            })?;
+            t = t1;
+        }
+        ControlFlow::Continue(())
+    }
+
+    /// The point at optical depth `target` along the ray, for σ per layer
+    /// `sigma` and the half chords `chords` of [`ShellExit::levels`]: the
+    /// search of [`locate`] over [`ShellExit::try_for_each_segment`]; the
+    /// last segment's end if rounding leaves the target beyond the ray's
+    /// end.
+    pub fn locate(&self, sigma: &[f64], chords: &[f64], target: f64) -> Collision {
         let mut acc = 0.0;
         let mut last = None;
-        let mut step = |layer: usize, end: f64| {
-            let t1 = end.max(t);
-            let s = sigma[layer];
-            let d = s * (t1 - t);
+        let found = self.try_for_each_segment(chords, |seg| {
+            let s = sigma[seg.layer];
+            let d = s * (seg.t1 - seg.t0);
             if s > 0.0 && acc + d >= target {
-                return Some(Collision {
-                    t: (t + (target - acc) / s).min(t1),
-                    layer,
+                return ControlFlow::Break(Collision {
+                    t: (seg.t0 + (target - acc) / s).min(seg.t1),
+                    layer: seg.layer,
                     sigma_maj: s,
                 });
             }
             acc += d;
-            t = t1;
             last = Some(Collision {
-                t: t1,
-                layer,
+                t: seg.t1,
+                layer: seg.layer,
                 sigma_maj: s,
             });
-            None
-        };
-        let (down, up) = self.runs();
-        for k in down.rev() {
-            if let Some(c) = step(k, -b - chords[k - start]) {
-                return c;
-            }
+            ControlFlow::Continue(())
+        });
+        match found {
+            ControlFlow::Break(c) => c,
+            ControlFlow::Continue(()) => last.expect("a located flight has a segment"),
         }
-        for k in up {
-            if let Some(c) = step(k - 1, -b + chords[k - start]) {
-                return c;
-            }
-        }
-        last.expect("a located flight has a segment")
     }
 
     /// How the ray ends, with its distance to the ground or the top
