@@ -10,8 +10,10 @@
 //! paths against 550 nm alone at the same path count, with the relative
 //! standard errors of the first and last channels against dedicated runs
 //! of those channels alone scaled to equal time; the first vertex split
-//! (the default) against an analog first vertex, cost and variance; and
-//! the throughput of the pool against one thread.
+//! (the default) against an analog first vertex, cost and variance; every
+//! flight analog too (no forced collisions: the estimator of a generic
+//! volumetric path tracer), its throughput and its time × variance
+//! against the default; and the throughput of the pool against one thread.
 
 use std::io::{self, Write};
 use std::path::Path;
@@ -223,28 +225,46 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     for spectrum in &spectra {
         shared_ratios(spectrum, samples, t_one, out)?;
     }
-    let analog = Job::parse(
-        &REFERENCE_JOB.replace("polarized = true", "polarized = true\nfirst_vertex_splitting = false"),
-        "throughput_reference.toml",
-        Path::new("."),
-    )?;
-    let analog_scene = analog.scene(0);
-    let (t_analog, unsplit) = timed(|| render_directions(&analog_scene, alt, dirs, samples, seed, 0));
-    let variance_ratio = |s: usize| {
-        split
-            .iter()
-            .zip(&unsplit)
+    // The same case with extra [render] keys, rendered and timed.
+    let with_keys = |keys: &str| -> Result<(f64, Vec<Tally>)> {
+        let job = Job::parse(
+            &REFERENCE_JOB.replace("polarized = true", &format!("polarized = true\n{keys}")),
+            "throughput_reference.toml",
+            Path::new("."),
+        )?;
+        let scene = job.scene(0);
+        Ok(timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)))
+    };
+    // Mean over the directions of (a's standard error / b's)² for Stokes
+    // component s.
+    let variance_ratio = |a: &[Tally], b: &[Tally], s: usize| {
+        a.iter()
+            .zip(b)
             .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
             .sum::<f64>()
-            / split.len() as f64
+            / a.len() as f64
     };
+    let (t_analog, unsplit) = with_keys("first_vertex_splitting = false")?;
     writeln!(
         out,
         "analog first vertex: {t_analog:.3} s; split/analog cost ratio {:.3}, variance ratio (mean over directions) I {:.3}, Q {:.3}, U {:.3}",
         t_one / t_analog,
-        variance_ratio(0),
-        variance_ratio(1),
-        variance_ratio(2)
+        variance_ratio(&split, &unsplit, 0),
+        variance_ratio(&split, &unsplit, 1),
+        variance_ratio(&split, &unsplit, 2)
+    )
+    .map_err(io)?;
+    // The estimator of a generic volumetric path tracer: every flight
+    // analog (a collision or the path's end, by chance), no split.
+    let (t_free, free) = with_keys("first_vertex_splitting = false\nforced_collisions = false")?;
+    let efficiency = |s: usize| variance_ratio(&free, &split, s) * t_free / t_one;
+    writeln!(
+        out,
+        "analog flights (forced_collisions = false, first_vertex_splitting = false): {t_free:.3} s, {:.0} paths/s per core; time × variance against the default (mean over directions) I {:.2}, Q {:.2}, U {:.2}",
+        paths as f64 / t_free / threads as f64,
+        efficiency(0),
+        efficiency(1),
+        efficiency(2)
     )
     .map_err(io)?;
     let (t_serial, _) = serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)));

@@ -60,8 +60,9 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
         /// Also measure the throughput ratios (four albedos, eleven shared
-        /// wavelengths and their errors against dedicated runs, threads vs
-        /// one), printed before the last line.
+        /// wavelengths and their errors against dedicated runs, the split
+        /// and analog estimators against the default, threads vs one),
+        /// printed before the last line.
         #[arg(long)]
         ratios: bool,
     },

@@ -88,6 +88,28 @@ fn bad_render_keys_are_refused_before_anything_is_written() {
 }
 
 #[test]
+fn bench_ratios_report_every_ratio_before_the_throughput_line() {
+    let out = atmosim().args(["bench", "--quick", "--ratios"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    for line in [
+        "four albedos (0, 0.3, 0.6, 1) from the same paths:",
+        "eleven wavelengths (320 to 760 nm by 44) along shared paths:",
+        "320.0 nm: shared relative standard error",
+        "760.0 nm: shared relative standard error",
+        "eleven bands of 40 nm from 320 nm along shared paths:",
+        "320–360 nm band:",
+        "720–760 nm band:",
+        "analog first vertex:",
+        "analog flights (forced_collisions = false, first_vertex_splitting = false):",
+        "threads vs 1: throughput ratio",
+    ] {
+        assert!(text.contains(line), "no {line:?} in\n{text}");
+    }
+    assert!(text.lines().last().unwrap().starts_with("paths_per_second_per_core: "));
+}
+
+#[test]
 fn bench_ends_with_the_throughput_line() {
     let out = atmosim().args(["bench", "--quick", "--threads", "1"]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

@@ -356,3 +356,38 @@ fn first_vertex_splitting_is_unbiased_and_cuts_polarisation_noise() {
         "split {split_var:e} vs analog {analog_var:e}"
     );
 }
+
+#[test]
+fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
+    // The throughput reference case (spherical US-standard Rayleigh, albedo
+    // 0.3, 12 directions) with every flight analog and no split — the
+    // estimator `bench --ratios` times against the default — and with the
+    // default forced flights and split first vertex: the same radiances.
+    let reference = atmosim::bench::REFERENCE_JOB;
+    let run = |keys: &str, samples: u64, seed: u64| {
+        let j = job(&reference.replace("polarized = true", &format!("polarized = true\n{keys}")));
+        render_directions(
+            &j.scene(0),
+            j.observer_altitude_km,
+            j.render.directions(),
+            samples,
+            seed,
+            0,
+        )
+    };
+    let forced = run("", 30_000, 21);
+    let analog = run("forced_collisions = false\nfirst_vertex_splitting = false", 200_000, 22);
+    let mut cmp = Comparison::default();
+    for (d, (x, y)) in analog.iter().zip(&forced).enumerate() {
+        for s in 0..3 {
+            cmp.add(
+                || format!("direction {d}, Stokes {s}"),
+                x.mean()[s],
+                x.standard_error()[s],
+                y.mean()[s],
+                y.standard_error()[s],
+            );
+        }
+    }
+    cmp.assert_no_outlier("analog vs forced flights");
+}
