@@ -1115,6 +1115,13 @@ mod tests {
                 assert_eq!(fast, generic, "z {z} μ {mu} τ {target}");
             }
             let segments: Vec<Segment> = exit.segments(&chords).collect();
+            // The plain-loop visitor gives the iterator's segments exactly.
+            let mut visited = Vec::new();
+            let _ = exit.try_for_each_segment(&chords, |seg| {
+                visited.push(seg);
+                ControlFlow::<()>::Continue(())
+            });
+            assert_eq!(visited, segments, "z {z} μ {mu}");
             assert_eq!(segments.len(), walked_segments.len(), "z {z} μ {mu}");
             for (a, b) in segments.iter().zip(&walked_segments) {
                 assert_eq!(a.layer, b.layer, "z {z} μ {mu}");
