@@ -62,17 +62,7 @@ fn huge_radius_spherical_shells_agree_with_plane_parallel() {
     let a = render_directions(&pp.scene(0), 1.0, &dirs, 100_000, 1, 0);
     let b = render_directions(&sph.scene(0), 1.0, &dirs, 100_000, 2, 0);
     let mut cmp = Comparison::default();
-    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
-        for s in 0..3 {
-            cmp.add(
-                || format!("direction {k} Stokes {s}"),
-                x.mean()[s],
-                x.standard_error()[s],
-                y.mean()[s],
-                y.standard_error()[s],
-            );
-        }
-    }
+    cmp.add_tallies("plane-parallel vs R = 1e6 km", &a, &b);
     cmp.assert_no_outlier("plane-parallel limit");
 }
 
@@ -161,17 +151,7 @@ fn sun_aware_and_collision_sun_connections_agree_for_a_low_sun() {
         };
         let (a, b) = (run("collision", 1), run("sun_aware", 2));
         let mut cmp = Comparison::default();
-        for (k, (x, y)) in a.iter().zip(&b).enumerate() {
-            for s in 0..3 {
-                cmp.add(
-                    || format!("elevation {elevation} direction {k} Stokes {s}"),
-                    x.mean()[s],
-                    x.standard_error()[s],
-                    y.mean()[s],
-                    y.standard_error()[s],
-                );
-            }
-        }
+        cmp.add_tallies(&format!("elevation {elevation}"), &a, &b);
         cmp.assert_no_outlier(&format!("sun-aware vs collision at elevation {elevation}"));
     }
 }
@@ -197,17 +177,7 @@ fn all_albedos_from_one_render_equal_separate_renders() {
                 "{base}[ground]\nalbedo = {a:?}\n[observer]\naltitude_km = 0.5\n"
             ));
             let alone = render_directions(&one.scene(0), 0.5, &dirs, 20_000, 100 + i as u64, 0);
-            for (d, (x, y)) in together[i].iter().zip(&alone).enumerate() {
-                for s in 0..3 {
-                    cmp.add(
-                        || format!("albedo {a} direction {d} Stokes {s}"),
-                        x.mean()[s],
-                        x.standard_error()[s],
-                        y.mean()[s],
-                        y.standard_error()[s],
-                    );
-                }
-            }
+            cmp.add_tallies(&format!("albedo {a}"), &together[i], &alone);
         }
         cmp.assert_no_outlier("albedo polynomial vs separate renders");
     }
@@ -244,17 +214,7 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
         for (w, lambda) in wavelengths.iter().enumerate() {
             let alone = atmosim::render::render_directions_all(&analog.scene(w), h, &dirs, 20_000, 50 + w as u64, 0);
             for a in 0..2 {
-                for (d, (x, y)) in shared[w][a].iter().zip(&alone[a]).enumerate() {
-                    for s in 0..3 {
-                        cmp.add(
-                            || format!("{lambda} nm albedo {a} direction {d} Stokes {s}"),
-                            x.mean()[s],
-                            x.standard_error()[s],
-                            y.mean()[s],
-                            y.standard_error()[s],
-                        );
-                    }
-                }
+                cmp.add_tallies(&format!("{lambda} nm albedo {a}"), &shared[w][a], &alone[a]);
             }
         }
         cmp.assert_no_outlier("shared spectral paths vs single wavelengths");
@@ -378,16 +338,6 @@ fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
     let forced = run("", 30_000, 21);
     let analog = run("forced_collisions = false\nfirst_vertex_splitting = false", 200_000, 22);
     let mut cmp = Comparison::default();
-    for (d, (x, y)) in analog.iter().zip(&forced).enumerate() {
-        for s in 0..3 {
-            cmp.add(
-                || format!("direction {d}, Stokes {s}"),
-                x.mean()[s],
-                x.standard_error()[s],
-                y.mean()[s],
-                y.standard_error()[s],
-            );
-        }
-    }
+    cmp.add_tallies("analog vs forced", &analog, &forced);
     cmp.assert_no_outlier("analog vs forced flights");
 }

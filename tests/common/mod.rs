@@ -79,6 +79,23 @@ impl Comparison {
         self.z.push(z);
     }
 
+    /// Adds I, Q and U of every direction: renders `a` against renders `b`
+    /// of the same directions (independent streams), named by `label`.
+    pub fn add_tallies(&mut self, label: &str, a: &[Tally], b: &[Tally]) {
+        assert_eq!(a.len(), b.len(), "{label}: direction counts differ");
+        for (d, (x, y)) in a.iter().zip(b).enumerate() {
+            for s in 0..3 {
+                self.add(
+                    || format!("{label} direction {d} Stokes {s}"),
+                    x.mean()[s],
+                    x.standard_error()[s],
+                    y.mean()[s],
+                    y.standard_error()[s],
+                );
+            }
+        }
+    }
+
     /// Fraction of |z| below 1 (≈ 0.68 for honest errors).
     pub fn within_one_sigma(&self) -> f64 {
         self.z.iter().filter(|z| z.abs() < 1.0).count() as f64 / self.z.len() as f64
