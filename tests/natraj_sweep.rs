@@ -18,6 +18,11 @@
 //!
 //! Criteria (transport-core issue): no |z| beyond the Šidák threshold, I
 //! within 0.3 % and |ΔQ|, |ΔU| below 3e-4 in Natraj's π-normalised units.
+//! Over a bright ground under a high sun the standard error of Q and U at
+//! 10⁶ paths comes close to that limit, so a second ignored test,
+//! `natraj_2009_recheck_beyond_the_q_u_limit`, renders the values beyond
+//! it again with 16 times the paths on another seed: noise falls under the
+//! limit, a bias does not.
 
 mod common;
 
@@ -68,6 +73,36 @@ fn done_rows(path: &PathBuf, n: u64) -> Vec<Vec<f64>> {
     rows
 }
 
+/// The sweep's CSV: `ATMOSIM_SWEEP_CSV`, or `target/natraj-sweep-<n>.csv`.
+fn sweep_csv(n: u64) -> PathBuf {
+    std::env::var("ATMOSIM_SWEEP_CSV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("target/natraj-sweep-{n}.csv")))
+}
+
+/// One render of Natraj's Rayleigh slab (optical depth `tau`, no
+/// depolarisation) for a list of albedos: the tallies per albedo, then per
+/// direction.
+#[allow(clippy::too_many_arguments)]
+fn render_slab(
+    tau: f64,
+    mu0: f64,
+    level: f64,
+    albedos: &[f64],
+    dirs: &[Direction],
+    n: u64,
+    seed: u64,
+    sun_sampling: &str,
+) -> Vec<Vec<atmosim::render::Tally>> {
+    let text = format!(
+        "{}[ground]\nalbedo = {albedos:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = {seed}\nsun_sampling = \"{sun_sampling}\"\n",
+        layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),
+        mu0.acos().to_degrees()
+    );
+    let job = job(&text);
+    render_directions_all(&job.scene(0), level, dirs, n, job.render.seed, 0)
+}
+
 #[test]
 #[ignore]
 fn natraj_2009_full_sweep() {
@@ -90,9 +125,7 @@ fn natraj_2009_full_sweep() {
         .flat_map(|&k| [(k, &black), (k, &reflecting)])
         .filter(|(_, set)| !set.is_empty())
         .collect();
-    let csv = std::env::var("ATMOSIM_SWEEP_CSV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("target/natraj-sweep-{n}.csv")));
+    let csv = sweep_csv(n);
     let mut done = done_rows(&csv, n);
     // Rewrite the file without a cut line, then append render by render.
     let mut text = format!("{HEADER}\n");
@@ -130,13 +163,7 @@ fn natraj_2009_full_sweep() {
                 azimuth_deg: r[5],
             })
             .collect();
-        let text = format!(
-            "{}[ground]\nalbedo = {albedos:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = 2009\nsun_sampling = \"{sun_sampling}\"\n",
-            layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),
-            mu0.acos().to_degrees()
-        );
-        let job = job(&text);
-        let tallies = render_directions_all(&job.scene(0), level, &dirs, n, job.render.seed, 0);
+        let tallies = render_slab(tau, mu0, level, albedos, &dirs, n, 2009, &sun_sampling);
         let mut lines = String::new();
         let mut new_rows = Vec::new();
         for (a, albedo) in albedos.iter().enumerate() {
@@ -231,6 +258,94 @@ fn natraj_2009_full_sweep() {
     cmp.assert_no_outlier("Natraj 2009 full sweep");
     assert!(max_rel_i < 0.003, "I error {max_rel_i}");
     assert!(max_dq < 3e-4 && max_du < 3e-4, "Q/U errors {max_dq} {max_du}");
+}
+
+/// The sweep's values beyond the 3e-4 limit on π|ΔQ| or π|ΔU|, rendered
+/// again on another seed with `ATMOSIM_RECHECK_FACTOR` (default 16) times
+/// the paths, where 4 standard errors fit under the limit: if they are
+/// noise, the new values are within the limit and have no outlier among
+/// them; a bias of 3e-4 or more stays. Run after the full sweep:
+///
+///   ATMOSIM_VALIDATION_SAMPLES=1000000 cargo test --release --test natraj_sweep -- --ignored --nocapture natraj_2009_recheck
+#[test]
+#[ignore]
+fn natraj_2009_recheck_beyond_the_q_u_limit() {
+    let n = samples(1_000_000);
+    let factor: u64 = std::env::var("ATMOSIM_RECHECK_FACTOR")
+        .map(|v| v.parse().expect("ATMOSIM_RECHECK_FACTOR is a whole number"))
+        .unwrap_or(16);
+    let csv = sweep_csv(n);
+    let done = done_rows(&csv, n);
+    assert!(
+        !done.is_empty(),
+        "no sweep in {}: run natraj_2009_full_sweep first",
+        csv.display()
+    );
+    let beyond = |r: &Vec<f64>| PI * (r[10] - r[12]).abs() >= 3e-4 || PI * (r[13] - r[15]).abs() >= 3e-4;
+    let flagged: Vec<&Vec<f64>> = done.iter().filter(|r| beyond(r)).collect();
+    let paths = n * factor;
+    eprintln!(
+        "{} of {} rows of {} beyond 3e-4 in Q or U; rendering them again at {paths} paths on seed 2010",
+        flagged.len(),
+        done.len(),
+        csv.display()
+    );
+    let mut keys: Vec<[f64; 4]> = flagged.iter().map(|r| [r[0], r[1], r[2], r[3]]).collect();
+    keys.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    keys.dedup();
+    let sun_sampling = std::env::var("ATMOSIM_SUN_SAMPLING").unwrap_or_else(|_| "auto".into());
+    let start = std::time::Instant::now();
+    let mut cmp = Comparison::default();
+    let (mut max_err, mut max_se) = (0.0f64, 0.0f64);
+    for [tau, albedo, mu0, level] in keys {
+        let group: Vec<&Vec<f64>> = flagged
+            .iter()
+            .copied()
+            .filter(|r| r[0] == tau && r[1] == albedo && r[2] == mu0 && r[3] == level)
+            .collect();
+        let dirs: Vec<Direction> = group
+            .iter()
+            .map(|r| Direction {
+                view_zenith_deg: r[4],
+                azimuth_deg: r[5],
+            })
+            .collect();
+        let tallies = render_slab(tau, mu0, level, &[albedo], &dirs, paths, 2010, &sun_sampling);
+        for (r, tl) in group.iter().zip(&tallies[0]) {
+            let (m, se) = (tl.mean(), tl.standard_error());
+            let mut line = format!("  τ {tau} A {albedo} μ0 {mu0} level {level} θ {} φ {}:", r[4], r[5]);
+            for (k, name) in [(1, "Q"), (2, "U")] {
+                let (old, old_se, reference) = (r[7 + 3 * k], r[8 + 3 * k], r[9 + 3 * k]);
+                let err = PI * (m[k] - reference).abs();
+                max_err = max_err.max(err);
+                max_se = max_se.max(PI * se[k]);
+                cmp.add(
+                    || format!("{name} τ {tau} A {albedo} μ0 {mu0} level {level} θ {} φ {}", r[4], r[5]),
+                    m[k],
+                    se[k],
+                    reference,
+                    0.5e-8 / PI,
+                );
+                line.push_str(&format!(
+                    " π|Δ{name}| {:.2e} (z {:.2}) → {err:.2e} (z {:.2});",
+                    PI * (old - reference).abs(),
+                    (old - reference) / old_se,
+                    (m[k] - reference) / se[k]
+                ));
+            }
+            eprintln!("{line}");
+        }
+        eprintln!(
+            "τ {tau} A {albedo} μ0 {mu0} level {level}: {} directions again ({:.0} s so far)",
+            dirs.len(),
+            start.elapsed().as_secs_f64()
+        );
+    }
+    eprintln!("recheck at {paths} paths: max π|ΔQ|, π|ΔU| {max_err:.2e}; largest π·se {max_se:.2e}");
+    if !flagged.is_empty() {
+        cmp.assert_no_outlier("Natraj 2009 recheck");
+    }
+    assert!(max_err < 3e-4, "Q/U errors at {paths} paths: {max_err}");
 }
 
 /// Per (τ, albedo): the largest π|ΔQ| and π|ΔU|, the largest π·se of Q
