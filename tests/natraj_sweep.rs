@@ -73,6 +73,18 @@ fn done_rows(path: &PathBuf, n: u64) -> Vec<Vec<f64>> {
     rows
 }
 
+/// A CSV row: the place (τ, albedo, μ0, level, view zenith, azimuth), the
+/// paths, then I, Q, U each as estimate, standard error and reference.
+fn sweep_row(place: &[f64], n: u64, tally: &atmosim::render::Tally, reference: &[f64]) -> Vec<f64> {
+    let (m, se) = (tally.mean(), tally.standard_error());
+    let mut row = place.to_vec();
+    row.push(n as f64);
+    for k in 0..3 {
+        row.extend([m[k], se[k], reference[k]]);
+    }
+    row
+}
+
 /// The sweep's CSV: `ATMOSIM_SWEEP_CSV`, or `target/natraj-sweep-<n>.csv`.
 fn sweep_csv(n: u64) -> PathBuf {
     std::env::var("ATMOSIM_SWEEP_CSV")
@@ -179,25 +191,7 @@ fn natraj_2009_full_sweep() {
                             && r[5] == d.azimuth_deg
                     })
                     .expect("every albedo has the same directions");
-                let (m, se) = (tl.mean(), tl.standard_error());
-                let row = vec![
-                    tau,
-                    *albedo,
-                    mu0,
-                    level,
-                    d.view_zenith_deg,
-                    d.azimuth_deg,
-                    n as f64,
-                    m[0],
-                    se[0],
-                    reference[6],
-                    m[1],
-                    se[1],
-                    reference[7],
-                    m[2],
-                    se[2],
-                    reference[8],
-                ];
+                let row = sweep_row(&reference[..6], n, tl, &reference[6..9]);
                 lines.push_str(&csv_line(&row));
                 new_rows.push(row);
             }
@@ -267,6 +261,9 @@ fn natraj_2009_full_sweep() {
 /// them; a bias of 3e-4 or more stays. Run after the full sweep:
 ///
 ///   ATMOSIM_VALIDATION_SAMPLES=1000000 cargo test --release --test natraj_sweep -- --ignored --nocapture natraj_2009_recheck
+///
+/// Like the sweep, it appends each render to a CSV beside the sweep's
+/// (`<sweep>.recheck-<factor>.csv`) and skips what is there.
 #[test]
 #[ignore]
 fn natraj_2009_recheck_beyond_the_q_u_limit() {
@@ -284,25 +281,36 @@ fn natraj_2009_recheck_beyond_the_q_u_limit() {
     let beyond = |r: &Vec<f64>| PI * (r[10] - r[12]).abs() >= 3e-4 || PI * (r[13] - r[15]).abs() >= 3e-4;
     let flagged: Vec<&Vec<f64>> = done.iter().filter(|r| beyond(r)).collect();
     let paths = n * factor;
+    let again_csv = csv.with_extension(format!("recheck-{factor}.csv"));
+    let mut again = done_rows(&again_csv, paths);
+    let mut text = format!("{HEADER}\n");
+    for r in &again {
+        text.push_str(&csv_line(r));
+    }
+    std::fs::write(&again_csv, text).unwrap();
+    let mut file = std::fs::OpenOptions::new().append(true).open(&again_csv).unwrap();
+    let same_place = |a: &[f64], b: &[f64]| a[..6] == b[..6];
     eprintln!(
-        "{} of {} rows of {} beyond 3e-4 in Q or U; rendering them again at {paths} paths on seed 2010",
+        "{} of {} rows of {} beyond 3e-4 in Q or U; rendering them again at {paths} paths on seed 2010 into {}",
         flagged.len(),
         done.len(),
-        csv.display()
+        csv.display(),
+        again_csv.display()
     );
     let mut keys: Vec<[f64; 4]> = flagged.iter().map(|r| [r[0], r[1], r[2], r[3]]).collect();
     keys.sort_by(|a, b| a.partial_cmp(b).unwrap());
     keys.dedup();
     let sun_sampling = std::env::var("ATMOSIM_SUN_SAMPLING").unwrap_or_else(|_| "auto".into());
     let start = std::time::Instant::now();
-    let mut cmp = Comparison::default();
-    let (mut max_err, mut max_se) = (0.0f64, 0.0f64);
     for [tau, albedo, mu0, level] in keys {
         let group: Vec<&Vec<f64>> = flagged
             .iter()
             .copied()
-            .filter(|r| r[0] == tau && r[1] == albedo && r[2] == mu0 && r[3] == level)
+            .filter(|r| r[..4] == [tau, albedo, mu0, level] && !again.iter().any(|a| same_place(a, r)))
             .collect();
+        if group.is_empty() {
+            continue;
+        }
         let dirs: Vec<Direction> = group
             .iter()
             .map(|r| Direction {
@@ -311,35 +319,58 @@ fn natraj_2009_recheck_beyond_the_q_u_limit() {
             })
             .collect();
         let tallies = render_slab(tau, mu0, level, &[albedo], &dirs, paths, 2010, &sun_sampling);
-        for (r, tl) in group.iter().zip(&tallies[0]) {
-            let (m, se) = (tl.mean(), tl.standard_error());
-            let mut line = format!("  τ {tau} A {albedo} μ0 {mu0} level {level} θ {} φ {}:", r[4], r[5]);
-            for (k, name) in [(1, "Q"), (2, "U")] {
-                let (old, old_se, reference) = (r[7 + 3 * k], r[8 + 3 * k], r[9 + 3 * k]);
-                let err = PI * (m[k] - reference).abs();
-                max_err = max_err.max(err);
-                max_se = max_se.max(PI * se[k]);
-                cmp.add(
-                    || format!("{name} τ {tau} A {albedo} μ0 {mu0} level {level} θ {} φ {}", r[4], r[5]),
-                    m[k],
-                    se[k],
-                    reference,
-                    0.5e-8 / PI,
-                );
-                line.push_str(&format!(
-                    " π|Δ{name}| {:.2e} (z {:.2}) → {err:.2e} (z {:.2});",
-                    PI * (old - reference).abs(),
-                    (old - reference) / old_se,
-                    (m[k] - reference) / se[k]
-                ));
-            }
-            eprintln!("{line}");
-        }
+        let rows: Vec<Vec<f64>> = group
+            .iter()
+            .zip(&tallies[0])
+            .map(|(r, tl)| sweep_row(&r[..6], paths, tl, &[r[9], r[12], r[15]]))
+            .collect();
+        file.write_all(rows.iter().map(|r| csv_line(r)).collect::<String>().as_bytes())
+            .unwrap();
+        file.flush().unwrap();
+        again.extend(rows);
         eprintln!(
             "τ {tau} A {albedo} μ0 {mu0} level {level}: {} directions again ({:.0} s so far)",
             dirs.len(),
             start.elapsed().as_secs_f64()
         );
+    }
+    let mut cmp = Comparison::default();
+    let (mut max_err, mut max_se) = (0.0f64, 0.0f64);
+    for r in &flagged {
+        let a = again
+            .iter()
+            .find(|a| same_place(a, r))
+            .expect("every flagged row is rendered again");
+        let mut line = format!(
+            "  τ {} A {} μ0 {} level {} θ {} φ {}:",
+            r[0], r[1], r[2], r[3], r[4], r[5]
+        );
+        for (k, name) in [(1, "Q"), (2, "U")] {
+            let (old, old_se, reference) = (r[7 + 3 * k], r[8 + 3 * k], r[9 + 3 * k]);
+            let (new, new_se) = (a[7 + 3 * k], a[8 + 3 * k]);
+            let err = PI * (new - reference).abs();
+            max_err = max_err.max(err);
+            max_se = max_se.max(PI * new_se);
+            cmp.add(
+                || {
+                    format!(
+                        "{name} τ {} A {} μ0 {} level {} θ {} φ {}",
+                        r[0], r[1], r[2], r[3], r[4], r[5]
+                    )
+                },
+                new,
+                new_se,
+                reference,
+                0.5e-8 / PI,
+            );
+            line.push_str(&format!(
+                " π|Δ{name}| {:.2e} (z {:.2}) → {err:.2e} (z {:.2});",
+                PI * (old - reference).abs(),
+                (old - reference) / old_se,
+                (new - reference) / new_se
+            ));
+        }
+        eprintln!("{line}");
     }
     eprintln!("recheck at {paths} paths: max π|ΔQ|, π|ΔU| {max_err:.2e}; largest π·se {max_se:.2e}");
     if !flagged.is_empty() {
