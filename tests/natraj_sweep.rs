@@ -85,6 +85,29 @@ fn sweep_row(place: &[f64], n: u64, tally: &atmosim::render::Tally, reference: &
     row
 }
 
+/// The rows of a CSV so far and the file open for appending, rewritten
+/// first without a line cut short by a kill.
+fn resume_csv(path: &PathBuf, n: u64) -> (Vec<Vec<f64>>, std::fs::File) {
+    let rows = done_rows(path, n);
+    let mut text = format!("{HEADER}\n");
+    for r in &rows {
+        text.push_str(&csv_line(r));
+    }
+    std::fs::write(path, text).unwrap();
+    let file = std::fs::OpenOptions::new().append(true).open(path).unwrap();
+    (rows, file)
+}
+
+/// The viewing directions of rows (columns 4 and 5).
+fn directions_of(rows: &[&Vec<f64>]) -> Vec<Direction> {
+    rows.iter()
+        .map(|r| Direction {
+            view_zenith_deg: r[4],
+            azimuth_deg: r[5],
+        })
+        .collect()
+}
+
 /// The sweep's CSV: `ATMOSIM_SWEEP_CSV`, or `target/natraj-sweep-<n>.csv`.
 fn sweep_csv(n: u64) -> PathBuf {
     std::env::var("ATMOSIM_SWEEP_CSV")
@@ -138,14 +161,7 @@ fn natraj_2009_full_sweep() {
         .filter(|(_, set)| !set.is_empty())
         .collect();
     let csv = sweep_csv(n);
-    let mut done = done_rows(&csv, n);
-    // Rewrite the file without a cut line, then append render by render.
-    let mut text = format!("{HEADER}\n");
-    for r in &done {
-        text.push_str(&csv_line(r));
-    }
-    std::fs::write(&csv, text).unwrap();
-    let mut file = std::fs::OpenOptions::new().append(true).open(&csv).unwrap();
+    let (mut done, mut file) = resume_csv(&csv, n);
     // ATMOSIM_SUN_SAMPLING=collision|sun_aware|auto (default auto).
     let sun_sampling = std::env::var("ATMOSIM_SUN_SAMPLING").unwrap_or_else(|_| "auto".into());
     let start = std::time::Instant::now();
@@ -168,13 +184,7 @@ fn natraj_2009_full_sweep() {
             .copied()
             .filter(|r| r[0] == tau && r[2] == mu0 && r[3] == level && r[1] == albedos[0])
             .collect();
-        let dirs: Vec<Direction> = group
-            .iter()
-            .map(|r| Direction {
-                view_zenith_deg: r[4],
-                azimuth_deg: r[5],
-            })
-            .collect();
+        let dirs = directions_of(&group);
         let tallies = render_slab(tau, mu0, level, albedos, &dirs, n, 2009, &sun_sampling);
         let mut lines = String::new();
         let mut new_rows = Vec::new();
@@ -282,13 +292,7 @@ fn natraj_2009_recheck_beyond_the_q_u_limit() {
     let flagged: Vec<&Vec<f64>> = done.iter().filter(|r| beyond(r)).collect();
     let paths = n * factor;
     let again_csv = csv.with_extension(format!("recheck-{factor}.csv"));
-    let mut again = done_rows(&again_csv, paths);
-    let mut text = format!("{HEADER}\n");
-    for r in &again {
-        text.push_str(&csv_line(r));
-    }
-    std::fs::write(&again_csv, text).unwrap();
-    let mut file = std::fs::OpenOptions::new().append(true).open(&again_csv).unwrap();
+    let (mut again, mut file) = resume_csv(&again_csv, paths);
     let same_place = |a: &[f64], b: &[f64]| a[..6] == b[..6];
     eprintln!(
         "{} of {} rows of {} beyond 3e-4 in Q or U; rendering them again at {paths} paths on seed 2010 into {}",
@@ -311,13 +315,7 @@ fn natraj_2009_recheck_beyond_the_q_u_limit() {
         if group.is_empty() {
             continue;
         }
-        let dirs: Vec<Direction> = group
-            .iter()
-            .map(|r| Direction {
-                view_zenith_deg: r[4],
-                azimuth_deg: r[5],
-            })
-            .collect();
+        let dirs = directions_of(&group);
         let tallies = render_slab(tau, mu0, level, &[albedo], &dirs, paths, 2010, &sun_sampling);
         let rows: Vec<Vec<f64>> = group
             .iter()
