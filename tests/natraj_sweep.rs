@@ -34,6 +34,11 @@ use std::path::PathBuf;
 use atmosim::render::{Direction, render_directions_all};
 use common::{Comparison, job, layers_toml, samples, table};
 
+/// The limits: on |ΔI/I|, and on π|ΔQ| and π|ΔU| (Natraj's
+/// π-normalised units).
+const I_LIMIT: f64 = 0.003;
+const Q_U_LIMIT: f64 = 3e-4;
+
 const HEADER: &str = "tau,albedo,mu0,level,view_zenith_deg,azimuth_deg,samples,I,I_se,I_ref,Q,Q_se,Q_ref,U,U_se,U_ref";
 
 /// One CSV line of a row, every value exactly (`{:?}` round-trips).
@@ -261,8 +266,8 @@ fn natraj_2009_full_sweep() {
     );
     report_q_u_by_group(&done, n);
     cmp.assert_no_outlier("Natraj 2009 full sweep");
-    assert!(max_rel_i < 0.003, "I error {max_rel_i}");
-    assert!(max_dq < 3e-4 && max_du < 3e-4, "Q/U errors {max_dq} {max_du}");
+    assert!(max_rel_i < I_LIMIT, "I error {max_rel_i}");
+    assert!(max_dq < Q_U_LIMIT && max_du < Q_U_LIMIT, "Q/U errors {max_dq} {max_du}");
 }
 
 /// The sweep's values beyond the limits (0.3 % on I, 3e-4 on
@@ -406,7 +411,11 @@ fn natraj_2009_recheck_beyond_the_limits() {
 /// The limit on the error of I, Q or U (k = 0, 1, 2) in Natraj's
 /// π-normalised units: 0.3 % of I, 3e-4 / π on Q and U.
 fn limit(k: usize, reference: f64) -> f64 {
-    if k == 0 { 0.003 * reference.abs() } else { 3e-4 / PI }
+    if k == 0 {
+        I_LIMIT * reference.abs()
+    } else {
+        Q_U_LIMIT / PI
+    }
 }
 
 /// A row's largest error in units of its limit (beyond a limit at ≥ 1).
@@ -433,7 +442,7 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
                 max_err = max_err.max(err);
                 max_se = max_se.max(PI * se);
                 count += 1;
-                if err >= 3e-4 {
+                if err >= Q_U_LIMIT {
                     beyond += 1;
                     z_beyond = z_beyond.max((m - reference).abs() / se);
                 }
@@ -443,7 +452,7 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
             format!("none of {count} beyond 3e-4")
         } else {
             // Paths per direction for 4 standard errors to fit under 3e-4.
-            let needed = n as f64 * (4.0 * max_se / 3e-4).powi(2);
+            let needed = n as f64 * (4.0 * max_se / Q_U_LIMIT).powi(2);
             let cause = if needed > n as f64 {
                 format!("4 σ under 3e-4 needs {needed:.1e} paths")
             } else {
