@@ -32,6 +32,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use atmosim::render::{Direction, render_directions_all};
+use atmosim::stats::two_sided_tail;
 use common::{Comparison, job, layers_toml, samples, table};
 
 /// The issue's limits: on |ΔI/I|, and on π|ΔQ| and π|ΔU| (Natraj's
@@ -235,6 +236,7 @@ fn natraj_2009_full_sweep() {
     let mut cmp = Comparison::default();
     let (mut max_rel_i, mut max_dq, mut max_du) = (0.0f64, 0.0f64, 0.0f64);
     let (mut worst_i, mut max_rel_se) = (String::new(), 0.0f64);
+    let (mut i_beyond, mut i_expected) = (0, 0.0);
     for r in &done {
         let place = || format!("τ {} A {} μ0 {} level {} θ {} φ {}", r[0], r[1], r[2], r[3], r[4], r[5]);
         for k in 0..3 {
@@ -249,6 +251,8 @@ fn natraj_2009_full_sweep() {
         }
         let rel = (r[7] / r[9] - 1.0).abs();
         max_rel_se = max_rel_se.max(r[8] / r[9]);
+        i_beyond += usize::from(rel >= I_LIMIT);
+        i_expected += two_sided_tail(I_LIMIT * r[9].abs() / r[8]);
         if rel > max_rel_i {
             max_rel_i = rel;
             worst_i = format!("{}: {} vs {}", place(), r[7], r[9]);
@@ -258,7 +262,7 @@ fn natraj_2009_full_sweep() {
     }
     eprintln!(
         "Natraj sweep: {} values × {n} paths ({rendered} renders in this run, {:.0} s); max |ΔI/I| = {:.3} % ({worst_i}); \
-         largest relative standard error of I {:.3} %; max π|ΔQ| = {max_dq:.2e}; max π|ΔU| = {max_du:.2e}",
+         {i_beyond} values of I beyond 0.3 % ({i_expected:.2} expected from noise alone); largest relative standard error of I {:.3} %; max π|ΔQ| = {max_dq:.2e}; max π|ΔU| = {max_du:.2e}",
         done.len(),
         start.elapsed().as_secs_f64(),
         100.0 * max_rel_i,
@@ -426,15 +430,21 @@ fn excess(r: &[f64]) -> f64 {
 }
 
 /// Per (τ, albedo): the largest π|ΔQ| and π|ΔU|, the largest π·se of Q
-/// and U and, where values exceed the 3e-4 limit, how many, their largest
-/// |z| and the paths per direction at which 4 standard errors would fit
-/// under the limit: this tells noise from bias.
+/// and U, how many values exceed the 3e-4 limit against how many noise
+/// alone would put there (the sum of their two-sided normal tails beyond
+/// it) and, where any do, their largest |z| and the paths per direction at
+/// which 4 standard errors would fit under the limit: this tells noise
+/// from bias.
 fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
     let mut keys: Vec<[f64; 2]> = done.iter().map(|r| [r[0], r[1]]).collect();
     keys.sort_by(|a, b| a.partial_cmp(b).unwrap());
     keys.dedup();
+    let (mut all_beyond, mut all_count, mut all_expected) = (0, 0, 0.0);
     for [tau, albedo] in keys {
         let (mut max_err, mut max_se, mut beyond, mut count, mut z_beyond) = (0.0f64, 0.0f64, 0, 0, 0.0f64);
+        // How many values noise alone would put beyond the limit: the sum
+        // over values of P(|Z| > limit / se).
+        let mut expected = 0.0;
         for r in done.iter().filter(|r| r[0] == tau && r[1] == albedo) {
             for k in [1, 2] {
                 let (m, se, reference) = (r[7 + 3 * k], r[8 + 3 * k], r[9 + 3 * k]);
@@ -442,6 +452,7 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
                 max_err = max_err.max(err);
                 max_se = max_se.max(PI * se);
                 count += 1;
+                expected += two_sided_tail(Q_U_LIMIT / (PI * se));
                 if err >= Q_U_LIMIT {
                     beyond += 1;
                     z_beyond = z_beyond.max((m - reference).abs() / se);
@@ -449,7 +460,7 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
             }
         }
         let verdict = if beyond == 0 {
-            format!("none of {count} beyond 3e-4")
+            format!("none of {count} beyond 3e-4 ({expected:.1} expected from noise alone)")
         } else {
             // Paths per direction for 4 standard errors to fit under 3e-4.
             let needed = n as f64 * (4.0 * max_se / Q_U_LIMIT).powi(2);
@@ -458,8 +469,14 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
             } else {
                 "4 σ fit under 3e-4 already: not noise".to_string()
             };
-            format!("{beyond} of {count} beyond 3e-4, the largest |z| among them {z_beyond:.2}; {cause}")
+            format!(
+                "{beyond} of {count} beyond 3e-4 ({expected:.1} expected from noise alone), the largest |z| among them {z_beyond:.2}; {cause}"
+            )
         };
         eprintln!("  τ {tau} albedo {albedo}: max π|ΔQ|, π|ΔU| {max_err:.2e}; largest π·se {max_se:.2e}; {verdict}");
+        (all_beyond, all_count, all_expected) = (all_beyond + beyond, all_count + count, all_expected + expected);
     }
+    eprintln!(
+        "  in all: {all_beyond} of {all_count} values of Q and U beyond 3e-4, {all_expected:.1} expected from noise alone"
+    );
 }
