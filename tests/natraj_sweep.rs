@@ -11,7 +11,7 @@
 //! (there, sharing costs the black ground up to 18× the standard error).
 //! Each render's rows are appended to a CSV as soon as it is done
 //! (`ATMOSIM_SWEEP_CSV`, default `target/natraj-sweep-<samples>.csv`); a
-//! second run skips the renders already there, so the sweep (about 5 h on
+//! second run skips the renders already there, so the sweep (about 10 h on
 //! 2 cores) can be stopped and continued, and the verdict is over the
 //! whole file; with `ATMOSIM_SWEEP_PARTIAL=1` it renders nothing and gives
 //! the verdict over the rows done so far.
