@@ -252,7 +252,7 @@ fn natraj_2009_full_sweep() {
         let rel = (r[7] / r[9] - 1.0).abs();
         max_rel_se = max_rel_se.max(r[8] / r[9]);
         i_beyond += usize::from(rel >= I_LIMIT);
-        i_expected += two_sided_tail(I_LIMIT * r[9].abs() / r[8]);
+        i_expected += two_sided_tail(limit(0, r[9]) / r[8]);
         if rel > max_rel_i {
             max_rel_i = rel;
             worst_i = format!("{}: {} vs {}", place(), r[7], r[9]);
@@ -452,7 +452,7 @@ fn report_q_u_by_group(done: &[Vec<f64>], n: u64) {
                 max_err = max_err.max(err);
                 max_se = max_se.max(PI * se);
                 count += 1;
-                expected += two_sided_tail(Q_U_LIMIT / (PI * se));
+                expected += two_sided_tail(limit(k, reference) / se);
                 if err >= Q_U_LIMIT {
                     beyond += 1;
                     z_beyond = z_beyond.max((m - reference).abs() / se);
