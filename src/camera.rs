@@ -164,6 +164,28 @@ impl Camera {
         }
     }
 
+    /// The ray through the centre of pixel (i, j); for a fisheye pixel whose
+    /// centre lies outside the circle, through the nearest point of the
+    /// circle's rim (the pixel's frame is that of this direction).
+    pub fn centre_ray(&self, i: usize, j: usize) -> Option<PixelRay> {
+        let (x, y) = (i as f64 + 0.5, j as f64 + 0.5);
+        match *self {
+            Camera::Fisheye { resolution, .. } => {
+                let r = resolution as f64 / 2.0;
+                let (dx, dy) = (x - r, y - r);
+                let rho = dx.hypot(dy) / r;
+                if rho > 1.0 {
+                    // Just inside the rim, so that rounding keeps it there.
+                    let k = (1.0 - 1e-12) / rho;
+                    self.ray_at(r + dx * k, r + dy * k)
+                } else {
+                    self.ray_at(x, y)
+                }
+            }
+            Camera::Panorama { .. } | Camera::Sphere { .. } => self.ray_at(x, y),
+        }
+    }
+
     /// The image point (x, y) that looks along unit `v`; `None` when no
     /// pixel does (the other hemisphere of a fisheye, behind a panorama).
     pub fn point_of(&self, v: DVec3) -> Option<(f64, f64)> {

@@ -1,9 +1,12 @@
 //! Rendering an image sensor: per pixel, `samples` paths through points of
 //! the pixel (stratified jitter, box filter) or through its centre, each
 //! sample's radiance weighted by dΩ/dA over the pixel's mean, so the pixel
-//! holds the mean radiance over its solid angle. Pixels are rendered in
-//! parallel; each pixel's sums run in sample order, so the image is
-//! bit-identical for any number of threads.
+//! holds the mean radiance over its solid angle. Each sample's Stokes
+//! vector is referred to the pixel's frame (that of its centre direction,
+//! carried to the sample's direction: [`crate::stokes_frame`]), so the frame
+//! is continuous over the pixel, the zenith and nadir pixels included.
+//! Pixels are rendered in parallel; each pixel's sums run in sample order,
+//! so the image is bit-identical for any number of threads.
 
 use rayon::prelude::*;
 
@@ -13,6 +16,7 @@ use crate::render::SampleValues;
 use crate::render::Tally;
 use crate::sampler::Sampler;
 use crate::stokes::Stokes;
+use crate::stokes_frame::{StokesFrame, carry};
 
 /// One image layer: a wavelength and an albedo, mean and standard error of
 /// I, Q, U, V per pixel (row-major, row 0 at the top).
@@ -59,26 +63,29 @@ pub fn pixel_weights(camera: &Camera) -> Vec<f64> {
 }
 
 /// How pixels are sampled: the camera, the pixels' mean dΩ/dA, the filter,
-/// samples per pixel and the stream keys (seed, key).
+/// the Stokes frame (and the sun's direction, which the sun–view frame
+/// needs), samples per pixel and the stream keys (seed, key).
 #[derive(Clone, Copy)]
 pub struct PixelSampling<'a> {
     pub camera: &'a Camera,
     pub weights: &'a [f64],
     pub filter: PixelFilter,
+    pub frame: StokesFrame,
+    pub sun: glam::DVec3,
     pub samples: u64,
     pub seed: u64,
     pub key: u64,
 }
 
-/// Renders every pixel: `radiance(direction, azimuth, sampler)` gives a
-/// sample's `count` values; returns tallies `[value][pixel]` and the count
+/// Renders every pixel: `radiance(direction, e1, sampler)` gives a sample's
+/// `count` values referred to the axis `e1`; returns tallies `[value][pixel]` and the count
 /// of non-finite samples. `progress` is called as pixels finish (from
 /// worker threads).
 pub fn render_pixels<R: SampleValues>(
     sampling: &PixelSampling,
     count: usize,
     progress: &(dyn Fn(u64) + Sync),
-    radiance: impl Fn(glam::DVec3, f64, &mut Sampler) -> R + Sync,
+    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R + Sync,
 ) -> (Vec<Vec<Tally>>, u64) {
     let mut per_pixel = vec![Tally::default(); sampling.weights.len() * count];
     render_pixels_into(sampling, 0..sampling.samples, &mut per_pixel, count, progress, radiance);
@@ -96,7 +103,7 @@ pub fn render_pixels_into<R: SampleValues>(
     per_pixel: &mut [Tally],
     count: usize,
     progress: &(dyn Fn(u64) + Sync),
-    radiance: impl Fn(glam::DVec3, f64, &mut Sampler) -> R + Sync,
+    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R + Sync,
 ) {
     let (w, _) = sampling.camera.size();
     per_pixel
@@ -134,33 +141,19 @@ pub fn render_layers(
     altitude_km: f64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Vec<Tally>>, u64) {
-    render_pixels(sampling, scene.albedos.len(), progress, |v, phi, s| {
-        scene.radiance_sample(altitude_km, v, phi, s)
+    render_pixels(sampling, scene.albedos.len(), progress, |v, e1, s| {
+        scene.radiance_sample(altitude_km, v, e1, s)
     })
 }
 
 /// [`render_layers`] for the scene's first albedo.
-#[allow(clippy::too_many_arguments)]
 pub fn render_layer(
     scene: &Scene,
-    camera: &Camera,
-    weights: &[f64],
-    filter: PixelFilter,
+    sampling: &PixelSampling,
     altitude_km: f64,
-    samples: u64,
-    seed: u64,
-    key: u64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Tally>, u64) {
-    let sampling = PixelSampling {
-        camera,
-        weights,
-        filter,
-        samples,
-        seed,
-        key,
-    };
-    let (mut t, n) = render_layers(scene, &sampling, altitude_km, progress);
+    let (mut t, n) = render_layers(scene, sampling, altitude_km, progress);
     (t.swap_remove(0), n)
 }
 
@@ -177,12 +170,17 @@ fn render_pixel<R: SampleValues>(
     index: usize,
     range: std::ops::Range<u64>,
     tallies: &mut [Tally],
-    radiance: &impl Fn(glam::DVec3, f64, &mut Sampler) -> R,
+    radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R,
 ) -> bool {
     let weight = sampling.weights[index];
     if weight <= 0.0 {
         return false;
     }
+    // The pixel's frame: its centre's, carried to each sample's direction.
+    let Some(centre) = sampling.camera.centre_ray(i, j) else {
+        return false;
+    };
+    let centre_e1 = sampling.frame.axis(centre.direction, centre.azimuth, sampling.sun);
     let samples = sampling.samples;
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
@@ -207,7 +205,8 @@ fn render_pixel<R: SampleValues>(
         match sampling.camera.ray_at(x, y) {
             None => tallies.iter_mut().for_each(|t| t.add(&Stokes::zero())),
             Some(ray) => {
-                let l = radiance(ray.direction, ray.azimuth, &mut sampler);
+                let e1 = carry(centre_e1, centre.direction, ray.direction);
+                let l = radiance(ray.direction, e1, &mut sampler);
                 let scale = match sampling.filter {
                     PixelFilter::Center => 1.0,
                     PixelFilter::Box => ray.jacobian / weight,

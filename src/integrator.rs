@@ -50,7 +50,7 @@ use crate::medium::{Medium, PointCoefficients};
 use crate::phase::{PhaseFunction, PhaseMixture, orthonormal_basis};
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
-use crate::stokes::{Mueller, PhaseMatrix, Stokes, StokesRotation, meridian_frame};
+use crate::stokes::{Mueller, PhaseMatrix, Stokes, StokesRotation};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::tracking::{self, FlightEnd, GroundEnd, Ray, Segment};
@@ -172,18 +172,12 @@ impl Scene {
     }
 
     /// One sample of the diffuse Stokes radiance arriving at the observer
-    /// from viewing direction `view` (unit, observer frame), in the meridian
-    /// frame of `view` (`phi_fallback` fixes it at the zenith and nadir).
-    pub fn radiance_sample(
-        &self,
-        altitude_km: f64,
-        view: DVec3,
-        phi_fallback: f64,
-        sampler: &mut Sampler,
-    ) -> Radiances {
+    /// from viewing direction `view` (unit, observer frame), referred to the
+    /// axis `e1` (unit, ⟂ `view`; e.g. the meridian axis, see
+    /// [`crate::stokes_frame`]).
+    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, e1: DVec3, sampler: &mut Sampler) -> Radiances {
         let origin = self.observer_position(altitude_km);
         let up = self.geometry.up(origin);
-        let (e1, _) = meridian_frame(view, phi_fallback);
         let mut path = Path::new(e1, &self.albedos);
         let Some(layer) = tracking::layer_at(self.medium.levels_km(), altitude_km, view.dot(up)) else {
             // Looking down from the ground: the ground itself at distance 0,

@@ -7,7 +7,9 @@
 //! lengths in km (f64), coefficients in km⁻¹; angles in degrees at the edges
 //! and radians inside; radiance per unit extraterrestrial solar irradiance
 //! (E0 = 1, sr⁻¹); Stokes vectors (I, Q, U, V) in the meridian frame of the
-//! viewing direction, as IPRT and libRadtran/MYSTIC define them.
+//! viewing direction, as IPRT and libRadtran/MYSTIC define them, or on
+//! request in the sun–view frame; an image pixel's in the frame of its
+//! centre carried over the pixel ([`stokes_frame`]).
 //!
 //! Data flow: job file → [`job::Job`] → [`atmosphere::Atmosphere`] (optical
 //! properties per layer and wavelength) → sensor → integrator → film → output.
@@ -44,6 +46,7 @@ pub mod spectral;
 pub mod spectral_terms;
 pub mod stats;
 pub mod stokes;
+pub mod stokes_frame;
 pub mod sun;
 pub mod sun_depth;
 pub mod task_output;

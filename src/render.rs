@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use crate::integrator::{Radiances, Scene};
 use crate::sampler::Sampler;
 use crate::spectral::{SpectralRadiances, SpectralScene};
-use crate::stokes::Stokes;
+use crate::stokes::{Stokes, meridian_frame};
+use crate::stokes_frame::StokesFrame;
 
 /// Samples per block: the unit of parallel work and of the summation order.
 pub const BLOCK: u64 = 1024;
@@ -29,6 +30,18 @@ impl Direction {
         let (st, ct) = self.view_zenith_deg.to_radians().sin_cos();
         let (sp, cp) = self.azimuth_deg.to_radians().sin_cos();
         DVec3::new(st * cp, st * sp, ct)
+    }
+
+    /// The Stokes reference axis e1 of this direction in `frame`
+    /// ([`crate::stokes_frame`]); `sun` is the unit vector toward the sun.
+    pub fn axis(&self, frame: StokesFrame, sun: DVec3) -> DVec3 {
+        frame.axis(self.vector(), self.azimuth_deg.to_radians(), sun)
+    }
+
+    /// The meridian axis e1 = ∂v/∂θ of this direction (at the zenith or
+    /// nadir, that of its azimuth).
+    pub fn meridian_axis(&self) -> DVec3 {
+        meridian_frame(self.vector(), self.azimuth_deg.to_radians()).0
     }
 }
 
@@ -188,10 +201,9 @@ pub fn render_directions_all(
         .iter()
         .enumerate()
         .map(|(d, dir)| {
-            let v = dir.vector();
-            let phi = dir.azimuth_deg.to_radians();
+            let (v, e1) = (dir.vector(), dir.meridian_axis());
             tally(samples, [seed, key, d as u64], scene.albedos.len(), |s| {
-                scene.radiance_sample(altitude_km, v, phi, s)
+                scene.radiance_sample(altitude_km, v, e1, s)
             })
         })
         .collect();
@@ -215,10 +227,9 @@ pub fn render_directions_spectral(
         .iter()
         .enumerate()
         .map(|(d, dir)| {
-            let v = dir.vector();
-            let phi = dir.azimuth_deg.to_radians();
+            let (v, e1) = (dir.vector(), dir.meridian_axis());
             tally(samples, [seed, key, d as u64], nw * na, |s| {
-                scene.radiance_sample(altitude_km, v, phi, s)
+                scene.radiance_sample(altitude_km, v, e1, s)
             })
         })
         .collect();
@@ -281,29 +292,30 @@ pub fn flux_stream(up: bool) -> u64 {
 /// viewing direction in the upper (`up` false: light coming down) or lower
 /// hemisphere, for every albedo of the scene.
 pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler) -> Radiances {
-    let (v, phi) = flux_direction(up, s);
-    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+    let (v, e1) = flux_direction(up, s);
+    let mut l = scene.radiance_sample(altitude_km, v, e1, s);
     to_irradiance(&mut l.values);
     l
 }
 
 /// [`flux_sample`] for every channel of shared spectral paths.
 pub fn flux_sample_spectral(scene: &SpectralScene, altitude_km: f64, up: bool, s: &mut Sampler) -> SpectralRadiances {
-    let (v, phi) = flux_direction(up, s);
-    let mut l = scene.radiance_sample(altitude_km, v, phi, s);
+    let (v, e1) = flux_direction(up, s);
+    let mut l = scene.radiance_sample(altitude_km, v, e1, s);
     to_irradiance(&mut l.values);
     l
 }
 
 /// A cosine-distributed viewing direction in the upper (`up` false) or
-/// lower hemisphere, and its azimuth.
-fn flux_direction(up: bool, s: &mut Sampler) -> (DVec3, f64) {
+/// lower hemisphere, and its meridian axis.
+fn flux_direction(up: bool, s: &mut Sampler) -> (DVec3, DVec3) {
     let sign = if up { -1.0 } else { 1.0 };
     let u = s.next2();
     let r = u[0].sqrt();
     let phi = 2.0 * PI * u[1];
     let z = sign * (1.0 - u[0]).max(0.0).sqrt();
-    (DVec3::new(r * phi.cos(), r * phi.sin(), z), phi)
+    let v = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+    (v, meridian_frame(v, phi).0)
 }
 
 /// Radiances of cosine-distributed directions to irradiances: π·I.

@@ -227,7 +227,12 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         }),
         ("layers".into(), "<wavelength>nm_a<albedo x 100>, e.g. 540nm_a030; channels I Q U V and I_se Q_se U_se V_se (standard errors of the mean)".into()),
         ("units".into(), units.into()),
-        ("stokes_frame".into(), "meridian frame of each pixel's viewing direction v: e1 = dv/dtheta (in the plane of v and the zenith), e2 = (sin phi, -cos phi, 0); Q = I(e1) - I(e2); U = I((e1+e2)/sqrt2) - I((e1-e2)/sqrt2) (IPRT / libRadtran-MYSTIC)".into()),
+        ("stokes_frame".into(), format!(
+            "{}; each pixel in the frame of its centre direction, carried to every sample direction of the pixel by \
+             the rotation that takes the centre to it; Q = I(e1) - I(e2), U = I((e1+e2)/sqrt2) - I((e1-e2)/sqrt2) \
+             (IPRT / libRadtran-MYSTIC)",
+            spec.stokes_frame.describe()
+        )),
         ("direct_sun".into(), "not included (diffuse sky radiance only)".into()),
         ("wavelengths_nm".into(), list(&job.wavelengths_nm)),
         ("albedos".into(), list(&spec.albedos)),

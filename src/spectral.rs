@@ -69,7 +69,7 @@ use crate::sampler::Sampler;
 use crate::shell::Geometry;
 use crate::solar::SolarSpectrum;
 use crate::spectral_terms::{Response, SpectralTerms};
-use crate::stokes::{Mueller, PhaseMatrix, Stokes, meridian_frame};
+use crate::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sun::Sun;
 use crate::tracking::{self, Ray, Segment, ShellExit, WalkEnd};
 
@@ -514,12 +514,13 @@ impl SpectralScene {
     }
 
     /// One sample of the diffuse Stokes radiance at every wavelength and
-    /// albedo, arriving from `view` (see `integrator::Scene::radiance_sample`).
+    /// albedo, arriving from `view`, referred to the axis `e1` (see
+    /// `integrator::Scene::radiance_sample`).
     pub fn radiance_sample(
         &self,
         altitude_km: f64,
         view: DVec3,
-        phi_fallback: f64,
+        e1: DVec3,
         sampler: &mut Sampler,
     ) -> SpectralRadiances {
         WORK.with_borrow_mut(|work| {
@@ -533,7 +534,6 @@ impl SpectralScene {
             };
             let n = self.channels.len();
             let albedos = self.albedos.len().min(MAX_ALBEDOS);
-            let (e1, _) = meridian_frame(view, phi_fallback);
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
             let levels = &self.levels_km;
             path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);

@@ -432,11 +432,11 @@ pub fn run(
                 EstimateKind::Direction { source, .. } | EstimateKind::Pixels { source } => match source {
                     Source::Shared => {
                         let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                        radiance_wave(scene, job, layout, &est, work.clone(), tallies, altitude_km);
+                        radiance_wave(scene, job, task, layout, &est, work.clone(), tallies);
                     }
                     Source::Wavelength(w) => {
                         let scene = scenes.single(w);
-                        radiance_wave(scene, job, layout, &est, work.clone(), tallies, altitude_km);
+                        radiance_wave(scene, job, task, layout, &est, work.clone(), tallies);
                     }
                 },
                 EstimateKind::Flux { source, up } => match source {
@@ -478,20 +478,20 @@ pub fn run(
 /// ([`SpectralScene`]).
 trait RadianceSource: Sync {
     type Values: SampleValues;
-    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> Self::Values;
+    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> Self::Values;
 }
 
 impl RadianceSource for Scene {
     type Values = Radiances;
-    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> Radiances {
-        self.radiance_sample(altitude_km, v, phi, s)
+    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> Radiances {
+        self.radiance_sample(altitude_km, v, e1, s)
     }
 }
 
 impl RadianceSource for SpectralScene {
     type Values = SpectralRadiances;
-    fn sample(&self, altitude_km: f64, v: DVec3, phi: f64, s: &mut Sampler) -> SpectralRadiances {
-        self.radiance_sample(altitude_km, v, phi, s)
+    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> SpectralRadiances {
+        self.radiance_sample(altitude_km, v, e1, s)
     }
 }
 
@@ -500,18 +500,19 @@ impl RadianceSource for SpectralScene {
 fn radiance_wave<S: RadianceSource>(
     scene: &S,
     job: &Job,
+    task: &Task,
     layout: &Layout,
     est: &Estimate,
     work: std::ops::Range<u64>,
     tallies: &mut [Tally],
-    altitude_km: f64,
 ) {
+    let (altitude_km, sun) = (task.observer_altitude_km, task.sun.direction);
     match (&job.render.sensor, est.kind) {
         (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
             let dir = directions[direction];
-            let (v, phi) = (dir.vector(), dir.azimuth_deg.to_radians());
+            let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
             render::tally_blocks(work, layout.samples, est.keys, tallies, |s| {
-                scene.sample(altitude_km, v, phi, s)
+                scene.sample(altitude_km, v, e1, s)
             })
         }
         (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
@@ -519,12 +520,14 @@ fn radiance_wave<S: RadianceSource>(
                 camera,
                 weights: &layout.weights,
                 filter: job.render.pixel_filter,
+                frame: job.render.stokes_frame,
+                sun,
                 samples: layout.samples,
                 seed: est.keys[0],
                 key: est.keys[1],
             };
-            film::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, phi, s| {
-                scene.sample(altitude_km, v, phi, s)
+            film::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s| {
+                scene.sample(altitude_km, v, e1, s)
             })
         }
         _ => unreachable!("direction estimates belong to directions sensors, pixels to images"),

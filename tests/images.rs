@@ -3,13 +3,35 @@
 mod common;
 
 use atmosim::camera::{Camera, PixelFilter};
-use atmosim::film::{pixel_weights, render_layer};
+use atmosim::film::{PixelSampling, pixel_weights, render_layer};
 use atmosim::job::Sensor;
 use atmosim::render::{Direction, render_directions};
+use atmosim::stokes_frame::StokesFrame;
 use common::{Comparison, job};
 
 const SKY: &str = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
                    [sun]\nelevation_deg = 25.0\n[ground]\nalbedo = 0.2\n";
+
+/// Meridian-frame sampling of `camera` with stream keys (seed, 0).
+fn sampling<'a>(
+    job: &atmosim::job::Job,
+    camera: &'a Camera,
+    weights: &'a [f64],
+    filter: PixelFilter,
+    samples: u64,
+    seed: u64,
+) -> PixelSampling<'a> {
+    PixelSampling {
+        camera,
+        weights,
+        filter,
+        frame: StokesFrame::Meridian,
+        sun: job.tasks[0].sun.direction,
+        samples,
+        seed,
+        key: 0,
+    }
+}
 
 fn camera_of(text: &str) -> (atmosim::job::Job, Camera) {
     let j = job(text);
@@ -27,7 +49,12 @@ fn fisheye_pixels_agree_with_directions_runs() {
         ));
         let scene = j.scene(0);
         let weights = pixel_weights(&cam);
-        let (tallies, _) = render_layer(&scene, &cam, &weights, PixelFilter::Center, 0.0, 4000, 1, 0, &|_| {});
+        let (tallies, _) = render_layer(
+            &scene,
+            &sampling(&j, &cam, &weights, PixelFilter::Center, 4000, 1),
+            0.0,
+            &|_| {},
+        );
         let mut cmp = Comparison::default();
         for (i, jj) in [(8usize, 8usize), (3, 8), (8, 2), (12, 11), (5, 13)] {
             let ray = cam.ray_at(i as f64 + 0.5, jj as f64 + 0.5).unwrap();
@@ -60,20 +87,21 @@ fn box_filtered_pixels_average_their_solid_angle() {
     // 4× finer panorama over the same area (solid-angle weighted).
     let (j, coarse) = camera_of(&format!("{SKY}[sensor]\ntype = \"panorama\"\nresolution = [6, 6]\n"));
     let scene = j.scene(0);
+    let cw = pixel_weights(&coarse);
     let (c_tallies, _) = render_layer(
         &scene,
-        &coarse,
-        &pixel_weights(&coarse),
-        PixelFilter::Box,
+        &sampling(&j, &coarse, &cw, PixelFilter::Box, 20_000, 3),
         0.0,
-        20_000,
-        3,
-        0,
         &|_| {},
     );
     let fine = Camera::Panorama { width: 24, height: 24 };
     let fw = pixel_weights(&fine);
-    let (f_tallies, _) = render_layer(&scene, &fine, &fw, PixelFilter::Box, 0.0, 1_500, 4, 0, &|_| {});
+    let (f_tallies, _) = render_layer(
+        &scene,
+        &sampling(&j, &fine, &fw, PixelFilter::Box, 1_500, 4),
+        0.0,
+        &|_| {},
+    );
     let mut cmp = Comparison::default();
     for (ci, cj) in [(1usize, 1usize), (3, 2), (4, 4)] {
         let (mut num, mut var, mut den) = (0.0, 0.0, 0.0);
@@ -109,7 +137,12 @@ fn images_are_mirror_symmetric_about_the_sun_vertical() {
         let (j, cam) = camera_of(&format!("{SKY}[observer]\naltitude_km = 2.0\n[sensor]\n{sensor}"));
         let scene = j.scene(0);
         let weights = pixel_weights(&cam);
-        let (t, _) = render_layer(&scene, &cam, &weights, PixelFilter::Box, 2.0, 2_000, 5, 0, &|_| {});
+        let (t, _) = render_layer(
+            &scene,
+            &sampling(&j, &cam, &weights, PixelFilter::Box, 2_000, 5),
+            2.0,
+            &|_| {},
+        );
         let (w, h) = cam.size();
         let mut cmp = Comparison::default();
         for y in 0..h {

@@ -152,6 +152,13 @@ pub(super) enum RawPixelFilter {
     Center,
 }
 
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawStokesFrame {
+    Meridian,
+    SunView,
+}
+
 /// `resolution = 256` or `resolution = [512, 256]`.
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(
@@ -176,6 +183,7 @@ pub(super) struct RawSensor {
     pub(super) hemisphere: Option<RawHemisphere>,
     pub(super) projection: Option<RawProjection>,
     pub(super) pixel_filter: Option<RawPixelFilter>,
+    pub(super) stokes_frame: Option<RawStokesFrame>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

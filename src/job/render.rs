@@ -6,13 +6,14 @@ use std::path::PathBuf;
 use super::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
-    RawSensor, RawSensorKind, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
+    RawSensor, RawSensorKind, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
 };
 use crate::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::error::Result;
 use crate::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
 use crate::medium::MediumModel;
 use crate::render::Direction;
+use crate::stokes_frame::StokesFrame;
 
 /// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;
@@ -53,6 +54,9 @@ pub struct RenderSpec {
     pub albedos: Vec<f64>,
     pub sensor: Sensor,
     pub pixel_filter: PixelFilter,
+    /// The frame of the output Stokes vectors (per pixel: the frame of its
+    /// centre, carried over the pixel).
+    pub stokes_frame: StokesFrame,
     /// Also estimate the fluxes at the observer level (`directions`).
     pub fluxes: bool,
     /// Samples per direction or pixel.
@@ -157,6 +161,11 @@ pub(super) fn resolve(
         RawPixelFilter::Center => PixelFilter::Center,
     };
 
+    let stokes_frame = match sensor_raw.stokes_frame {
+        None | Some(RawStokesFrame::Meridian) => StokesFrame::Meridian,
+        Some(RawStokesFrame::SunView) => StokesFrame::SunView,
+    };
+
     let render = render.unwrap_or_default();
     let samples = render.samples.unwrap_or(DEFAULT_SAMPLES);
     if samples == 0 {
@@ -185,6 +194,7 @@ pub(super) fn resolve(
         albedos,
         sensor,
         pixel_filter,
+        stokes_frame,
         fluxes: sensor_raw.fluxes.unwrap_or(true),
         samples,
         shared_wavelengths: render.shared_wavelengths.unwrap_or(true),

@@ -12,7 +12,7 @@ use glam::DVec3;
 use super::UvspecInput;
 use crate::job::Job;
 use crate::render::{Direction, Fluxes, Tally, render_directions_all, render_fluxes_all, stream_key, tally};
-use crate::stokes::Stokes;
+use crate::stokes::{Stokes, meridian_frame};
 
 /// Stream keys of the estimates that are not directions (directions use
 /// their index).
@@ -89,7 +89,7 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                         view_zenith_deg: theta,
                         azimuth_deg: phi,
                     };
-                    scene.radiance_sample(z, d.vector(), phi.to_radians(), s)
+                    scene.radiance_sample(z, d.vector(), d.meridian_axis(), s)
                 })[0]
             })
             .collect();
@@ -104,7 +104,7 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                 let sin_t = (1.0 - u[0] * u[0]).max(0.0).sqrt();
                 let phi = 2.0 * PI * u[1];
                 let v = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-                let mut l = scene.radiance_sample(z, v, phi, s);
+                let mut l = scene.radiance_sample(z, v, meridian_frame(v, phi).0, s);
                 for x in l.values.iter_mut() {
                     *x = Stokes::new(0.5 * x.0[0], 0.0, 0.0, 0.0);
                 }
