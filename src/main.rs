@@ -573,11 +573,7 @@ fn render_units(
             pool.current_num_threads()
         );
         if shard.is_whole() {
-            let info = RunInfo {
-                shards: 1,
-                seconds: Some(secs),
-                threads: pool.current_num_threads(),
-            };
+            let info = RunInfo { shards: 1 };
             let note = task_output::write(dir, job, task, layout, state, info)?;
             progress.println(&format!(
                 "[task {}/{}] {}: {rate}; wrote {}{note}",

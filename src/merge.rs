@@ -183,11 +183,7 @@ pub fn merge(out_dir: &Path, log: &dyn Fn(&str)) -> Result<Merged> {
     let mut directories = Vec::new();
     for (task, layout, total, n) in &plans {
         let dir = task_dir(out_dir, &job, task);
-        let info = RunInfo {
-            shards: *n,
-            seconds: None,
-            threads: rayon::current_num_threads(),
-        };
+        let info = RunInfo { shards: *n };
         let note = task_output::write(&dir, &job, task, layout, total, info)?;
         log(&format!("{}: merged {n} shards → {}{note}", task.name, dir.display()));
         directories.push(dir);

@@ -2,6 +2,13 @@
 //! named `layer.channel` (the multi-layer naming that OpenEXR tools, Nuke,
 //! Blender and OpenImageIO read as layers), and text attributes for the
 //! metadata. Written to memory, then atomically to disk.
+//!
+//! The `exr` crate keeps a header's attributes in a hash map and writes
+//! them in its (randomly seeded) iteration order, so the same image would
+//! give different bytes on every run. [`canonical_attribute_order`] sorts
+//! them by name in the written header (same attributes, same header size,
+//! so the chunk offsets that follow stay valid): the same image gives the
+//! same bytes.
 
 use std::io::Cursor;
 use std::path::Path;
@@ -56,7 +63,69 @@ pub fn write_exr(
     let image = Image::from_layer(layer);
     let mut bytes = Cursor::new(Vec::new());
     image.write().to_buffered(&mut bytes).map_err(|e| fail(e.to_string()))?;
-    write_atomic(path, bytes.get_ref())
+    let mut bytes = bytes.into_inner();
+    canonical_attribute_order(&mut bytes).map_err(|e| fail(format!("unexpected EXR header as written: {e}")))?;
+    write_atomic(path, &bytes)
+}
+
+/// The magic number of an OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+/// Version flag of a multi-part file (a header per part).
+const MULTIPART_FLAG: u32 = 0x1000;
+
+/// Sorts the attributes of the single-part header of the OpenEXR file
+/// `bytes` by name, in place. The header is the magic number, the version
+/// field and then the attributes (name and type as null-terminated
+/// strings, an i32 byte count, the value), closed by a null byte.
+pub fn canonical_attribute_order(bytes: &mut [u8]) -> std::result::Result<(), String> {
+    if bytes.len() < 8 || bytes[..4] != EXR_MAGIC {
+        return Err("not an OpenEXR file".into());
+    }
+    let version = u32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
+    if version & MULTIPART_FLAG != 0 {
+        return Err("a multi-part file".into());
+    }
+    let start = 8;
+    let c_string_end = |at: usize| -> std::result::Result<usize, String> {
+        bytes[at..]
+            .iter()
+            .position(|&b| b == 0)
+            .map(|n| at + n)
+            .ok_or_else(|| "unterminated attribute name or type".to_string())
+    };
+    // (name, start, end) of each attribute.
+    let mut attributes: Vec<(Vec<u8>, usize, usize)> = Vec::new();
+    let mut at = start;
+    loop {
+        if at >= bytes.len() {
+            return Err("header without its closing null byte".into());
+        }
+        if bytes[at] == 0 {
+            break;
+        }
+        let name_end = c_string_end(at)?;
+        let type_end = c_string_end(name_end + 1)?;
+        let size_at = type_end + 1;
+        let size = bytes
+            .get(size_at..size_at + 4)
+            .map(|b| i32::from_le_bytes(b.try_into().expect("4 bytes")))
+            .ok_or("truncated attribute size")?;
+        let end = usize::try_from(size)
+            .ok()
+            .and_then(|n| (size_at + 4).checked_add(n))
+            .filter(|&e| e <= bytes.len())
+            .ok_or("attribute size out of range")?;
+        attributes.push((bytes[at..name_end].to_vec(), at, end));
+        at = end;
+    }
+    let mut sorted = attributes.clone();
+    sorted.sort_by(|a, b| a.0.cmp(&b.0));
+    let mut header = Vec::with_capacity(at - start);
+    for (_, a, b) in &sorted {
+        header.extend_from_slice(&bytes[*a..*b]);
+    }
+    bytes[start..at].copy_from_slice(&header);
+    Ok(())
 }
 
 /// What [`read_exr`] returns.
@@ -142,5 +211,45 @@ mod tests {
         let t = exr.channels.iter().find(|c| c.name == "540nm.T").unwrap();
         assert_eq!(t.samples, a);
         assert!(exr.attributes.contains(&("units".to_string(), "1".to_string())));
+    }
+
+    #[test]
+    fn the_same_image_gives_the_same_bytes_with_attributes_in_name_order() {
+        let dir = tempfile::tempdir().unwrap();
+        // Enough attributes that a hash map's order differs between maps.
+        let attributes: Vec<(String, String)> = (0..24)
+            .map(|k| (format!("key{:02}", (k * 7) % 24), format!("value {k}")))
+            .collect();
+        let write = |name: &str| {
+            let p = dir.path().join(name);
+            let channel = Channel {
+                name: "550nm_a000.I".into(),
+                samples: (0..12).map(|i| i as f32).collect(),
+            };
+            write_exr(&p, 4, 3, vec![channel], &attributes).unwrap();
+            std::fs::read(p).unwrap()
+        };
+        let first = write("a.exr");
+        for k in 0..4 {
+            assert_eq!(write(&format!("{k}.exr")), first, "run {k}");
+        }
+        // The attributes are in name order in the header.
+        let text = String::from_utf8_lossy(&first);
+        let positions: Vec<usize> = (0..24).map(|k| text.find(&format!("key{k:02}\0")).unwrap()).collect();
+        assert!(positions.windows(2).all(|w| w[0] < w[1]), "{positions:?}");
+        // And the file still reads.
+        let exr = read_exr(&dir.path().join("a.exr")).unwrap();
+        assert_eq!(exr.attributes.iter().filter(|(k, _)| k.starts_with("key")).count(), 24);
+    }
+
+    #[test]
+    fn canonical_order_refuses_what_is_not_a_single_part_exr() {
+        assert!(canonical_attribute_order(&mut b"not an exr".to_vec()).is_err());
+        let mut truncated = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, b'a', 0, b'i', b'n', b't', 0, 4, 0];
+        assert!(canonical_attribute_order(&mut truncated).is_err());
+        let mut multipart = vec![0x76, 0x2f, 0x31, 0x01, 2, 0x10, 0, 0, 0];
+        assert!(canonical_attribute_order(&mut multipart).is_err());
+        let mut empty = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0, 0];
+        assert!(canonical_attribute_order(&mut empty).is_ok());
     }
 }

@@ -4,6 +4,8 @@
 //! samples, shards), written last. Every file is written atomically, and a
 //! task counts as complete only when its `task.toml` names the same job
 //! hash, so a crash at any point never leaves a task that looks complete.
+//! Every file is a function of the job and its sums alone (no times, thread
+//! counts or dates), so the same job gives the same bytes on every run.
 
 use std::path::Path;
 
@@ -16,14 +18,12 @@ use crate::unit::{self, Layout, UnitState};
 /// The metadata file of a task.
 pub const TASK_FILE: &str = "task.toml";
 
-/// How the sums were made, for the metadata.
+/// How the sums were made, for the metadata (only what the results
+/// depend on: the wall time and thread count go to the log, not the files).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunInfo {
     /// Shards merged (1: rendered in one unit).
     pub shards: u64,
-    /// Wall time of the render (of the last unit when resumed; `None` for a merge).
-    pub seconds: Option<f64>,
-    pub threads: usize,
 }
 
 /// Writes the task's files into `dir`; returns a note for the log (the
@@ -94,9 +94,5 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
             "normalized: per unit extraterrestrial solar irradiance (E0 = 1)"
         }),
     );
-    put("threads", info.threads.to_string());
-    if let Some(secs) = info.seconds {
-        put("wall_seconds", format!("{secs:.3}"));
-    }
     s
 }
