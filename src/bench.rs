@@ -279,8 +279,5 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
 
 /// A failed write of the report.
 fn io(e: io::Error) -> crate::error::Error {
-    crate::error::Error::Io {
-        path: "stdout".into(),
-        source: e,
-    }
+    crate::error::Error::io("stdout", e)
 }

@@ -137,10 +137,7 @@ impl StateFile {
 
     /// Reads a state file.
     pub fn read(path: &Path) -> Result<StateFile> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
         Self::from_bytes(&bytes, &path.display().to_string())
     }
 }

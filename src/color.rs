@@ -106,10 +106,7 @@ pub fn write_png(
     pixels: &[u8],
     text: &[(&str, String)],
 ) -> Result<()> {
-    let fail = |m: String| Error::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(m),
-    };
+    let fail = |m: String| Error::io(path, std::io::Error::other(m));
     let mut bytes = Vec::new();
     {
         let mut encoder = png::Encoder::new(BufWriter::new(&mut bytes), width as u32, height as u32);

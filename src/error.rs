@@ -31,13 +31,11 @@ pub enum Error {
     #[error("{file}:{line}: {message}")]
     Uvspec { file: String, line: usize, message: String },
 
-    /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be read or written. The operating system's message
+    /// is part of this error's own text, not a separate cause, so that it
+    /// is printed once.
+    #[error("{}: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
 }
 
 impl Error {
@@ -46,7 +44,15 @@ impl Error {
     pub fn is_user_error(&self) -> bool {
         match self {
             Error::JobSyntax { .. } | Error::InvalidValue { .. } | Error::Data { .. } | Error::Uvspec { .. } => true,
-            Error::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
+            Error::Io { error, .. } => is_user_io_error(error.kind()),
+        }
+    }
+
+    /// An I/O error at `path`.
+    pub fn io(path: impl Into<PathBuf>, error: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            error,
         }
     }
 
@@ -57,6 +63,26 @@ impl Error {
             message: message.into(),
         }
     }
+}
+
+/// True for the I/O errors a user's paths cause (a file that is missing,
+/// not a file, not readable or writable, a directory that is a file, bytes
+/// that are not text), as opposed to a full disk or a failing device.
+fn is_user_io_error(kind: std::io::ErrorKind) -> bool {
+    use std::io::ErrorKind::*;
+    matches!(
+        kind,
+        NotFound
+            | PermissionDenied
+            | NotADirectory
+            | IsADirectory
+            | ReadOnlyFilesystem
+            | InvalidData
+            | InvalidInput
+            | InvalidFilename
+            | AlreadyExists
+            | DirectoryNotEmpty
+    )
 }
 
 /// The library's result type.

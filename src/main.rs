@@ -15,6 +15,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use atmosim::checkpoint::{self, StateFile};
 use atmosim::job::{Job, Sensor, Task};
 use atmosim::medium::Medium;
+use atmosim::out_dir::Destination;
 use atmosim::shard::Shard;
 use atmosim::task_output::{self, RunInfo};
 use atmosim::unit::{self, Control, Layout, Outcome, UnitState};
@@ -56,7 +57,7 @@ enum Command {
         /// A short run (20,000 paths per direction instead of 400,000).
         #[arg(long)]
         quick: bool,
-        /// Worker threads (default: all cores).
+        /// Worker threads (0 or absent: one per available core).
         #[arg(long)]
         threads: Option<usize>,
         /// Also measure the throughput ratios (four albedos, eleven shared
@@ -110,12 +111,16 @@ enum Command {
         /// Output directory (default: the job's `[output] directory`).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Worker threads (default: all cores).
+        /// Worker threads (0 or absent: one per available core).
         #[arg(long)]
         threads: Option<usize>,
         /// No progress lines on stderr.
         #[arg(long, short)]
         quiet: bool,
+        /// Write into directories that hold another job's tables, replacing
+        /// them (without it such a directory is refused).
+        #[arg(long)]
+        overwrite: bool,
     },
     /// Render a job: for a `directions` sensor, a CSV of Stokes radiances
     /// per wavelength and direction (radiance.csv) and the fluxes at the
@@ -129,7 +134,7 @@ enum Command {
         /// Print the radiance CSV on stdout instead of writing files.
         #[arg(long, conflicts_with_all = ["shard", "resume"])]
         stdout: bool,
-        /// Worker threads (default: all cores).
+        /// Worker threads (0 or absent: one per available core).
         #[arg(long)]
         threads: Option<usize>,
         /// No progress lines on stderr.
@@ -153,6 +158,10 @@ enum Command {
         /// Render tasks again that are already complete.
         #[arg(long)]
         force: bool,
+        /// Write into task directories that hold another job's results,
+        /// replacing them (without it such a directory is refused).
+        #[arg(long)]
+        overwrite: bool,
     },
 }
 
@@ -197,6 +206,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             resume,
             checkpoint_every,
             force,
+            overwrite,
         } => {
             let job = Job::from_file(&job)?;
             if !(checkpoint_every.is_finite() && checkpoint_every >= 0.0) {
@@ -213,19 +223,20 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 None => job.tasks.iter().collect(),
             };
             let pool = thread_pool(threads)?;
-            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
             if stdout {
                 return render_stdout(&job, &tasks, &pool, quiet);
             }
+            let destination = Destination::of(&job, out.as_deref());
             let options = UnitOptions {
                 shard: shard.unwrap_or(Shard::WHOLE),
                 resume,
                 force,
+                overwrite,
                 checkpoint_every: (checkpoint_every > 0.0)
                     .then(|| std::time::Duration::from_secs_f64(checkpoint_every * 60.0)),
                 quiet,
             };
-            render_units(&job, &tasks, &base, &pool, &options)?;
+            render_units(&job, &tasks, &destination, &pool, &options)?;
         }
         Command::Merge { out, quiet } => {
             let merged = atmosim::merge::merge(&out, &|msg: &str| {
@@ -274,6 +285,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             threads,
             quiet,
+            overwrite,
         } => {
             let job = Job::from_file(&job)?;
             if job.banded() {
@@ -286,17 +298,24 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 });
             }
             let pool = thread_pool(threads)?;
-            let base = out.unwrap_or_else(|| job.render.output_directory.clone());
+            let destination = Destination::of(&job, out.as_deref());
+            let base = destination.dir.clone();
             let tasks = job.transmittance_tasks();
+            let dir_of = |name: &str| {
+                if tasks.len() == 1 {
+                    base.clone()
+                } else {
+                    base.join(name)
+                }
+            };
+            destination.check_writable()?;
+            let dirs: Vec<PathBuf> = tasks.iter().map(|(_, name)| dir_of(name)).collect();
+            destination.check_not_another_job(&job, &dirs, overwrite)?;
             for (task, name) in &tasks {
                 let start = std::time::Instant::now();
                 let table = pool.install(|| transmittance_table(&job, task));
                 let spec = &job.transmittance;
-                let dir = if tasks.len() == 1 {
-                    base.clone()
-                } else {
-                    base.join(name)
-                };
+                let dir = dir_of(name);
                 let csv = output::transmittance_csv(&job.wavelengths_nm, &spec.grid, &table, spec.export_sqrt);
                 output::write_atomic(&dir.join("transmittance.csv"), csv.as_bytes())?;
                 output::write_transmittance_exr(
@@ -343,6 +362,7 @@ struct UnitOptions {
     shard: Shard,
     resume: bool,
     force: bool,
+    overwrite: bool,
     checkpoint_every: Option<std::time::Duration>,
     quiet: bool,
 }
@@ -454,12 +474,17 @@ struct Unit<'a> {
 fn render_units(
     job: &Job,
     tasks: &[&Task],
-    base: &Path,
+    destination: &Destination,
     pool: &rayon::ThreadPool,
     options: &UnitOptions,
 ) -> anyhow::Result<()> {
     catch_signals()?;
     let shard = options.shard;
+    let base = destination.dir.as_path();
+    // Where the outputs go, checked before any work.
+    destination.check_writable()?;
+    let task_dirs: Vec<PathBuf> = tasks.iter().map(|t| merge::task_dir(base, job, t)).collect();
+    destination.check_not_another_job(job, &task_dirs, options.overwrite)?;
     let log = |msg: &str| {
         if !options.quiet {
             eprintln!("{msg}");
@@ -574,7 +599,8 @@ fn render_units(
         );
         if shard.is_whole() {
             let info = RunInfo { shards: 1 };
-            let note = task_output::write(dir, job, task, layout, state, info)?;
+            let note =
+                task_output::write(dir, job, task, layout, state, info).map_err(|e| keep_sums(e, job, state, &cp))?;
             progress.println(&format!(
                 "[task {}/{}] {}: {rate}; wrote {}{note}",
                 k + 1,
@@ -584,7 +610,7 @@ fn render_units(
             ));
         } else {
             let path = checkpoint::shard_path(dir, shard);
-            checkpoint::write_state(job, state, &path)?;
+            checkpoint::write_state(job, state, &path).map_err(|e| keep_sums(e, job, state, &cp))?;
             progress.println(&format!(
                 "[task {}/{}] {} shard {shard}: {rate}; wrote {}",
                 k + 1,
@@ -608,6 +634,34 @@ fn render_units(
     }
     progress.finish();
     Ok(())
+}
+
+/// A unit's final files could not be written (`error`): keeps its
+/// finished sums as a checkpoint at `cp` (or, where that cannot be written
+/// either, in the temporary directory), so that `--resume` only writes.
+fn keep_sums(error: atmosim::Error, job: &Job, state: &UnitState, cp: &Path) -> anyhow::Error {
+    let kept = match checkpoint::write_state(job, state, cp) {
+        Ok(_) => format!(
+            "the finished sums are kept in {}: remove the cause and rerun with --resume, which only writes the files",
+            cp.display()
+        ),
+        Err(cp_error) => {
+            let name = cp
+                .file_name()
+                .map_or("unit.state".into(), |n| n.to_string_lossy().into_owned());
+            let fallback = std::env::temp_dir().join(format!("atmosim-{}-task{}-{name}", job.hash, state.task));
+            match checkpoint::write_state(job, state, &fallback) {
+                Ok(_) => format!(
+                    "the checkpoint could not be written either ({cp_error}); the finished sums are kept in {}: \
+                     move it to {} and rerun with --resume",
+                    fallback.display(),
+                    cp.display()
+                ),
+                Err(e) => format!("the finished sums could not be kept ({cp_error}; {e})"),
+            }
+        }
+    };
+    anyhow::Error::new(error).context(format!("writing the task's files failed; {kept}"))
 }
 
 /// Progress of a render: a bar on a terminal, else a line a minute.
@@ -770,7 +824,7 @@ fn write_slurm(
     Ok(())
 }
 
-/// A pool of `threads` workers (all cores when `None`).
+/// A pool of `threads` workers (one per available core when `None` or 0).
 fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
@@ -864,7 +918,7 @@ struct UvspecArgs {
     /// Print the atmosim job the input maps to and stop.
     #[arg(long)]
     print_job: bool,
-    /// Worker threads (default: all cores).
+    /// Worker threads (0 or absent: one per available core).
     #[arg(long)]
     threads: Option<usize>,
 }
@@ -891,7 +945,7 @@ struct ValidateArgs {
     /// Directory for report.md and the plots.
     #[arg(long, default_value = "validation-report")]
     out: PathBuf,
-    /// Worker threads (default: all cores).
+    /// Worker threads (0 or absent: one per available core).
     #[arg(long)]
     threads: Option<usize>,
 }
@@ -969,6 +1023,12 @@ fn run_validate(args: ValidateArgs) -> anyhow::Result<()> {
     if args.samples == Some(0) {
         anyhow::bail!(no_samples());
     }
+    atmosim::out_dir::Destination {
+        dir: args.out.clone(),
+        file: "command line".into(),
+        key: "--out".into(),
+    }
+    .check_writable()?;
     let pool = thread_pool(args.threads)?;
     let mut results = Vec::with_capacity(cases.len());
     for case in &cases {

@@ -40,7 +40,7 @@ pub fn task_dir(base: &Path, job: &Job, task: &crate::job::Task) -> PathBuf {
 fn shard_files(out_dir: &Path) -> Result<Vec<PathBuf>> {
     let io = |path: &Path| {
         let path = path.to_path_buf();
-        move |source| Error::Io { path, source }
+        move |e| Error::io(path, e)
     };
     let mut dirs = vec![out_dir.join("shards")];
     for entry in std::fs::read_dir(out_dir).map_err(io(out_dir))? {

@@ -40,10 +40,7 @@ pub fn write_exr(
     channels: Vec<Channel>,
     attributes: &[(String, String)],
 ) -> Result<()> {
-    let fail = |message: String| Error::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(message),
-    };
+    let fail = |message: String| Error::io(path, std::io::Error::other(message));
     let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
         .into_iter()
         .map(|c| AnyChannel::new(c.name.as_str(), FlatSamples::F32(c.samples)))
@@ -140,10 +137,7 @@ pub struct ExrContents {
 /// Reads back the channels and text attributes of an EXR written by
 /// [`write_exr`]: for tests and tools.
 pub fn read_exr(path: &Path) -> Result<ExrContents> {
-    let fail = |message: String| Error::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(message),
-    };
+    let fail = |message: String| Error::io(path, std::io::Error::other(message));
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -83,10 +83,7 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<()> {
 /// [`write_atomic`] with the contents streamed by `write` (which must not
 /// buffer past its return: flush a buffered writer before returning).
 pub fn write_atomic_with(path: &Path, write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io = |e| Error::io(path, e);
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())

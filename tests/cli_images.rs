@@ -60,7 +60,7 @@ fn fisheye_job_writes_stokes_layers_with_errors_and_metadata() {
         };
         assert_eq!(attr("task"), task);
         assert_eq!(attr("units"), "radiance per unit solar irradiance, 1/sr");
-        assert!(attr("stokes_frame").starts_with("meridian frame"));
+        assert!(attr("stokes_frame").starts_with("meridian: "));
         assert_eq!(attr("samples_per_pixel"), "16");
         assert_eq!(attr("sun_elevation_deg"), "20");
         assert_eq!(attr("albedos"), "0 0.5");

@@ -176,7 +176,23 @@ fn merge_refuses_mismatched_or_incomplete_shard_sets() {
     for (t, s) in [("0", "1/2"), ("0", "2/2"), ("1", "1/2")] {
         unit("a.toml", "mixed", t, s);
     }
-    unit("b.toml", "mixed", "1", "2/2");
+    // (render refuses to write into another job's task directory unless
+    // told to overwrite: merge must refuse the mix all the same)
+    run_ok(
+        d,
+        &[
+            "render",
+            "b.toml",
+            "--out",
+            "mixed",
+            "--task",
+            "1",
+            "--shard",
+            "2/2",
+            "-q",
+            "--overwrite",
+        ],
+    );
     merge_fails(d, "mixed", "shards of different jobs");
     // Different shard counts for one task.
     for (t, s) in [("0", "1/2"), ("1", "1/2"), ("1", "2/2")] {
@@ -336,9 +352,19 @@ fn resume_refuses_another_jobs_checkpoint() {
     wait_for(&cp, &mut child);
     child.kill().unwrap();
     child.wait().unwrap();
+    // Refused as another job's directory, and with --overwrite as another
+    // job's checkpoint to resume.
     let o = atmosim()
         .current_dir(d)
         .args(["render", "b.toml", "--out", "o", "--resume", "-q"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("holds the results of another job"), "{err}");
+    let o = atmosim()
+        .current_dir(d)
+        .args(["render", "b.toml", "--out", "o", "--resume", "-q", "--overwrite"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

@@ -388,10 +388,7 @@ impl Job {
 
     /// Reads and resolves a job file.
     pub fn from_file(path: &Path) -> Result<Job> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::input::read_text(path)?;
         let dir = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, &path.display().to_string(), dir)
     }

@@ -228,10 +228,7 @@ impl UvspecInput {
     /// Reads and parses a uvspec input file; files it names are read
     /// relative to its directory.
     pub fn from_file(path: &Path) -> Result<UvspecInput> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::input::read_text(path)?;
         let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         let resolve = |name: &str| std::fs::read_to_string(dir.join(name));
         let mut input = Self::parse(&text, &path.display().to_string(), &resolve)?;
