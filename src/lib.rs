@@ -51,6 +51,7 @@ pub mod stokes;
 pub mod stokes_frame;
 pub mod sun;
 pub mod sun_depth;
+pub mod sun_table;
 pub mod task_output;
 pub mod tracking;
 pub mod transmittance;

@@ -13,6 +13,7 @@ use crate::job::{AtmosphereSource, Job, Task, Units};
 use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
 use crate::output::write_atomic;
 use crate::shard::Shard;
+use crate::sun_table::{SUN_FILE, sun_csv};
 use crate::unit::{self, Control, Layout};
 
 /// The file an image task writes its Stokes images to.
@@ -97,10 +98,7 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
     )?;
 
     if spec.output_sun {
-        write_atomic(
-            &dir.join("sun.csv"),
-            sun_csv(job, task, camera, &|l| scale(l)).as_bytes(),
-        )?;
+        write_atomic(&dir.join(SUN_FILE), sun_csv(job, task, Some(camera)).as_bytes())?;
     }
     if !spec.preview {
         return Ok(None);
@@ -157,32 +155,6 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
         &[("Description", note)],
     )?;
     Ok(Some(exposure))
-}
-
-/// The transmitted direct sun per wavelength: transmittance along the
-/// sun's direction from the observer, direct normal irradiance, the disc's
-/// radiance (for a sun of finite size) and where its centre falls in the image.
-fn sun_csv(job: &Job, task: &Task, camera: &Camera, scale: &dyn Fn(f64) -> f64) -> String {
-    let mut s = String::from(
-        "wavelength_nm,sun_zenith_deg,transmittance,direct_normal_irradiance,sun_radiance,image_x,image_y\n",
-    );
-    let pos = camera.point_of(task.sun.direction);
-    for (w, &lambda) in job.wavelengths_nm.iter().enumerate() {
-        let t = job.scene_for(task, w).direct_transmittance(task.observer_altitude_km);
-        let e = t * scale(lambda);
-        let r = task.sun.angular_radius;
-        let radiance = if r > 0.0 {
-            e / (2.0 * std::f64::consts::PI * (1.0 - r.cos()))
-        } else {
-            f64::NAN
-        };
-        let (x, y) = pos.map_or((f64::NAN, f64::NAN), |p| p);
-        s.push_str(&format!(
-            "{lambda},{},{t:.9e},{e:.9e},{radiance:.9e},{x},{y}\n",
-            task.sun.zenith_deg
-        ));
-    }
-    s
 }
 
 fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(String, String)> {

@@ -13,6 +13,7 @@ use crate::error::Result;
 use crate::job::{Job, Sensor, Task};
 use crate::output::{self, write_atomic};
 use crate::sky_image;
+use crate::sun_table::{SUN_FILE, sun_csv};
 use crate::unit::{self, Layout, UnitState};
 
 /// The metadata file of a task.
@@ -39,6 +40,9 @@ pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitSt
             )?;
             if !result.fluxes.is_empty() {
                 write_atomic(&dir.join("fluxes.csv"), output::flux_csv(&result.fluxes).as_bytes())?;
+            }
+            if job.render.output_sun {
+                write_atomic(&dir.join(SUN_FILE), sun_csv(job, task, None).as_bytes())?;
             }
             String::new()
         }

@@ -205,3 +205,60 @@ fn the_quickstart_example_renders() {
     assert_eq!((exr.width, exr.height), (96, 96));
     assert!(dir.path().join("preview.png").exists());
 }
+
+#[test]
+fn the_direct_sun_table_has_no_undefined_values_for_any_sensor() {
+    // (sensor, sun, the header expected, whether the sun is in the image)
+    let cases = [
+        (
+            "type = \"fisheye\"\nresolution = 8",
+            "elevation_deg = 40.0",
+            "wavelength_nm,sun_zenith_deg,transmittance,direct_normal_irradiance,image_x,image_y",
+            true,
+        ),
+        (
+            "type = \"fisheye\"\nresolution = 8",
+            "elevation_deg = -2.0\nangular_radius_deg = 0.2666",
+            "wavelength_nm,sun_zenith_deg,transmittance,direct_normal_irradiance,sun_radiance,image_x,image_y",
+            false,
+        ),
+        (
+            "type = \"directions\"\nview_zenith_deg = [0.0]\nazimuth_deg = [0.0]",
+            "elevation_deg = 40.0",
+            "wavelength_nm,sun_zenith_deg,transmittance,direct_normal_irradiance",
+            false,
+        ),
+    ];
+    for (sensor, sun, header, in_image) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let job = format!(
+            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[sun]\n{sun}\n[sensor]\n{sensor}\n\
+             [render]\nsamples = 4\n[output]\nsun = true\npreview = false\n"
+        );
+        std::fs::write(dir.path().join("job.toml"), &job).unwrap();
+        let out = atmosim()
+            .current_dir(dir.path())
+            .args(["render", "job.toml", "--out", "o", "-q"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = std::fs::read_to_string(dir.path().join("o/sun.csv")).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some(header), "{sensor} {sun}");
+        let rows: Vec<&str> = lines.collect();
+        assert_eq!(rows.len(), 2, "{text}");
+        for row in rows {
+            let fields: Vec<&str> = row.split(',').collect();
+            assert_eq!(fields.len(), header.split(',').count(), "{row}");
+            for (k, f) in fields.iter().enumerate() {
+                let image_field = header.split(',').nth(k).unwrap().starts_with("image_");
+                if image_field && !in_image {
+                    assert_eq!(*f, "", "{sensor} {sun}: {row}");
+                } else {
+                    let v: f64 = f.parse().unwrap_or_else(|_| panic!("{row}"));
+                    assert!(v.is_finite(), "{sensor} {sun}: {row}");
+                }
+            }
+        }
+    }
+}
