@@ -4,9 +4,10 @@
 //! Both carry the job text, so `merge` needs nothing but the output
 //! directory, and both are written atomically (temporary file, rename).
 //!
-//! Format (little-endian), version 1:
+//! Format (little-endian), version 2 (version 1 counted an image's work in
+//! samples per pixel, version 2 in items, see [`crate::film::ActivePixels`]):
 //! ```text
-//! "ATMOSIM-STATE-1\n"                       16 bytes
+//! "ATMOSIM-STATE-2\n"                       16 bytes
 //! job hash, job file, job directory, job text: each u64 length + UTF-8,
 //!                                           zero-padded to whole 8-byte words
 //! task, shard index, shard count            3 × u64
@@ -28,7 +29,9 @@ use crate::render::Tally;
 use crate::shard::Shard;
 use crate::unit::UnitState;
 
-const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-1\n";
+const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-2\n";
+/// The header of the previous format, refused with its own message.
+const MAGIC_V1: &[u8; 16] = b"ATMOSIM-STATE-1\n";
 
 /// A unit's state with the job it belongs to.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,6 +79,12 @@ impl StateFile {
                 format!("not a usable atmosim state file ({what}); delete it to start the unit afresh"),
             )
         };
+        if bytes.starts_with(MAGIC_V1) {
+            return Err(bad(
+                "written by an older atmosim (state format 1), which counted an image's work \
+                            differently; finish it with that version, or render the unit again",
+            ));
+        }
         if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
             return Err(bad("no atmosim state header"));
         }

@@ -580,14 +580,21 @@ fn render_units(
         };
         let shared = job.spectral_scene(task);
         let outcome = pool.install(|| unit::run(job, task, layout, shared, state, &control))?;
-        if outcome == Outcome::Stopped {
+        if let Outcome::Stopped { checkpoint } = outcome {
             let sig = SIGNAL.load(Ordering::SeqCst) as i32;
             progress.finish();
-            eprintln!(
-                "{}: stopped by signal {sig}; checkpoint written to {}; rerun with --resume to continue",
-                task.name,
-                cp.display()
-            );
+            if checkpoint {
+                eprintln!(
+                    "{}: stopped by signal {sig}; checkpoint written to {}; rerun with --resume to continue",
+                    task.name,
+                    cp.display()
+                );
+            } else {
+                eprintln!(
+                    "{}: stopped by signal {sig} before any sample was traced; nothing to keep",
+                    task.name
+                );
+            }
             return Err(Interrupted(sig).into());
         }
         let secs = start.elapsed().as_secs_f64();

@@ -176,7 +176,7 @@ pub fn unit_memory_mib(job: &Job) -> u64 {
     let task = &job.tasks[0];
     let layout = crate::unit::Layout::new(job, task, job.spectral_scene(task).is_some());
     let tallies: u64 = (0..layout.estimates.len()).map(|e| layout.tallies(e) as u64).sum();
-    let bytes = tallies * std::mem::size_of::<crate::render::Tally>() as u64 * 2 + layout.weights.len() as u64 * 8;
+    let bytes = tallies * std::mem::size_of::<crate::render::Tally>() as u64 * 2 + layout.pixels as u64 * 8;
     256 + bytes.div_ceil(1 << 20) * 5 / 4
 }
 

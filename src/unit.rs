@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use crate::camera::Camera;
 use crate::error::Result;
-use crate::film::{self, ImageLayer, PixelSampling};
+use crate::film::{self, ActivePixels, ImageLayer, PixelSampling};
 use glam::DVec3;
 
 use crate::integrator::{Radiances, Scene};
@@ -84,10 +84,9 @@ pub struct Layout {
     pub samples: u64,
     /// Pixels of an image sensor (0 for directions).
     pub pixels: usize,
-    /// The pixels that are traced (inside a fisheye's circle).
-    pub active_pixels: u64,
-    /// The pixels' mean dΩ/dA (image sensors).
-    pub weights: Vec<f64>,
+    /// The pixels that are traced (image sensors): how many paths a range
+    /// of items holds (see [`ActivePixels`]).
+    pub active: Option<ActivePixels>,
     /// True when the wavelengths share their paths.
     pub shared: bool,
     /// Paths of the first wave (a wave: blocks of one direction, or the
@@ -108,7 +107,7 @@ impl Layout {
         let seed = spec.seed;
         let key = |w: usize| render::stream_key(task.index, w);
         let mut estimates = Vec::new();
-        let (mut pixels, mut active_pixels, mut weights) = (0, 0, Vec::new());
+        let (mut pixels, mut active) = (0, None);
         match &spec.sensor {
             Sensor::Directions(directions) => {
                 if shared {
@@ -164,9 +163,9 @@ impl Layout {
                 }
             }
             Sensor::Image(camera) => {
-                weights = film::pixel_weights(camera);
-                pixels = weights.len();
-                active_pixels = film::active_pixels(&weights);
+                let traced = ActivePixels::new(camera);
+                pixels = traced.pixels() as usize;
+                active = Some(traced);
                 let sources: Vec<Source> = if shared {
                     vec![Source::Shared]
                 } else {
@@ -192,8 +191,7 @@ impl Layout {
             estimates,
             samples: spec.samples,
             pixels,
-            active_pixels,
-            weights,
+            active,
             shared,
             wave_paths: 1 << 15,
             adaptive_waves: true,
@@ -201,10 +199,15 @@ impl Layout {
     }
 
     /// The work of estimate `e` in `shard`: sample blocks of a direction or
-    /// flux, samples per pixel of an image.
+    /// flux; the items of an image (its samples per pixel × its pixels, see
+    /// [`ActivePixels`]).
     pub fn range(&self, e: usize, shard: Shard) -> std::ops::Range<u64> {
         match self.estimates[e].kind {
-            EstimateKind::Pixels { .. } => shard.range(self.samples),
+            EstimateKind::Pixels { .. } => {
+                let samples = shard.range(self.samples);
+                let p = self.pixels as u64;
+                samples.start * p..samples.end * p
+            }
             _ => shard.range(self.samples.div_ceil(BLOCK)),
         }
     }
@@ -253,7 +256,7 @@ impl Layout {
     /// Paths of `work` (a part of [`Layout::range`]) of estimate `e`.
     fn paths_of(&self, e: usize, work: &std::ops::Range<u64>) -> u64 {
         match self.estimates[e].kind {
-            EstimateKind::Pixels { .. } => (work.end - work.start) * self.active_pixels,
+            EstimateKind::Pixels { .. } => self.active.as_ref().map_or(0, |a| a.paths(work)),
             _ => render::block_samples(work, self.samples),
         }
     }
@@ -294,8 +297,9 @@ pub struct UnitState {
     pub job_hash: String,
     pub task: usize,
     pub shard: Shard,
-    /// Per estimate: blocks (directions, fluxes) or samples per pixel
-    /// (images) done, counted from the start of the shard's range.
+    /// Per estimate: blocks (directions, fluxes) or items (images: samples
+    /// × pixels, see [`ActivePixels`]) done, counted from the start of the
+    /// shard's range.
     pub done: Vec<u64>,
     /// Per estimate: the running sums, one per value (pixel-major for
     /// images: the values of pixel 0, then of pixel 1, …).
@@ -363,8 +367,11 @@ fn no_checkpoint(_: &UnitState) -> Result<()> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
     Complete,
-    /// Stopped on request after writing a checkpoint.
-    Stopped,
+    /// Stopped on request, after writing a checkpoint (`checkpoint` true)
+    /// or before any sample was traced (nothing to keep).
+    Stopped {
+        checkpoint: bool,
+    },
 }
 
 /// The scenes of a task, built on first use.
@@ -386,11 +393,16 @@ impl Scenes<'_> {
 /// honoured within about this long.
 pub const WAVE_SECONDS: f64 = 1.0;
 
-/// The work of a wave of about `paths` paths: samples per pixel of an
-/// image, blocks of a direction or flux (at least one per thread).
-fn wave_size(kind: EstimateKind, paths: u64, active_pixels: u64) -> u64 {
+/// The work of a wave of about `paths` paths: items of an image (a wave
+/// may hold less than one sample per pixel), blocks of a direction or flux
+/// (at least one per thread).
+fn wave_size(kind: EstimateKind, paths: u64, layout: &Layout) -> u64 {
     match kind {
-        EstimateKind::Pixels { .. } => (paths / active_pixels.max(1)).max(1),
+        EstimateKind::Pixels { .. } => {
+            let active = layout.active.as_ref().map_or(1, |a| a.count().max(1));
+            let items = paths as u128 * layout.pixels as u128 / active as u128;
+            (items.min(u64::MAX as u128) as u64).max(rayon::current_num_threads() as u64)
+        }
         _ => (paths / BLOCK).max(rayon::current_num_threads() as u64),
     }
 }
@@ -416,27 +428,47 @@ pub fn run(
     };
     let mut last_checkpoint = Instant::now();
     let mut wave_paths = layout.wave_paths;
+    // The pixels' solid angles, computed when an image's first wave needs them.
+    let mut weights: Option<Vec<f64>> = None;
+    let stop = |state: &UnitState| -> Result<Outcome> {
+        let checkpoint = layout.done_paths(state) > 0;
+        if checkpoint {
+            (control.checkpoint)(state)?;
+        }
+        Ok(Outcome::Stopped { checkpoint })
+    };
     for e in 0..layout.estimates.len() {
         let est = layout.estimates[e];
         let range = layout.range(e, state.shard);
         while state.done[e] < range.end - range.start {
             if control.stop.load(Ordering::SeqCst) {
-                (control.checkpoint)(state)?;
-                return Ok(Outcome::Stopped);
+                return stop(state);
+            }
+            if let (Sensor::Image(camera), None) = (&job.render.sensor, &weights) {
+                match film::pixel_weights_until(camera, control.stop) {
+                    Some(w) => weights = Some(w),
+                    None => return stop(state),
+                }
             }
             let start = range.start + state.done[e];
-            let work = start..(start + wave_size(est.kind, wave_paths, layout.active_pixels)).min(range.end);
+            let work = start..(start + wave_size(est.kind, wave_paths, layout)).min(range.end);
+            let pixels = RunContext {
+                job,
+                task,
+                layout,
+                weights: weights.as_deref().unwrap_or(&[]),
+            };
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
             match est.kind {
                 EstimateKind::Direction { source, .. } | EstimateKind::Pixels { source } => match source {
                     Source::Shared => {
                         let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                        radiance_wave(scene, job, task, layout, &est, work.clone(), tallies);
+                        radiance_wave(scene, &pixels, &est, work.clone(), tallies);
                     }
                     Source::Wavelength(w) => {
                         let scene = scenes.single(w);
-                        radiance_wave(scene, job, task, layout, &est, work.clone(), tallies);
+                        radiance_wave(scene, &pixels, &est, work.clone(), tallies);
                     }
                 },
                 EstimateKind::Flux { source, up } => match source {
@@ -495,17 +527,30 @@ impl RadianceSource for SpectralScene {
     }
 }
 
-/// One wave (`work`) of a direction's sample blocks or of every pixel's
-/// samples, added to `tallies`.
+/// What a wave needs besides its scene and its work: the job and task, the
+/// layout and the pixels' solid angles (empty for directions).
+struct RunContext<'a> {
+    job: &'a Job,
+    task: &'a Task,
+    layout: &'a Layout,
+    weights: &'a [f64],
+}
+
+/// One wave (`work`) of a direction's sample blocks or of an image's items,
+/// added to `tallies`.
 fn radiance_wave<S: RadianceSource>(
     scene: &S,
-    job: &Job,
-    task: &Task,
-    layout: &Layout,
+    context: &RunContext,
     est: &Estimate,
     work: std::ops::Range<u64>,
     tallies: &mut [Tally],
 ) {
+    let RunContext {
+        job,
+        task,
+        layout,
+        weights,
+    } = *context;
     let (altitude_km, sun) = (task.observer_altitude_km, task.sun.direction);
     match (&job.render.sensor, est.kind) {
         (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
@@ -518,7 +563,7 @@ fn radiance_wave<S: RadianceSource>(
         (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
             let sampling = PixelSampling {
                 camera,
-                weights: &layout.weights,
+                weights,
                 filter: job.render.pixel_filter,
                 frame: job.render.stokes_frame,
                 sun,

@@ -10,7 +10,10 @@ use std::process::Command;
 
 /// "1.88" or "1.88.0" as (major, minor).
 fn version(text: &str) -> (u32, u32) {
-    let mut parts = text.trim().split('.').map(|p| p.parse::<u32>().unwrap_or_else(|_| panic!("{text}")));
+    let mut parts = text
+        .trim()
+        .split('.')
+        .map(|p| p.parse::<u32>().unwrap_or_else(|_| panic!("{text}")));
     (parts.next().unwrap(), parts.next().unwrap_or(0))
 }
 
@@ -39,7 +42,10 @@ fn no_dependency_needs_a_newer_compiler() {
         let value = chunk.trim_start();
         if let Some(rest) = value.strip_prefix('"') {
             let v = &rest[..rest.find('"').unwrap()];
-            assert!(version(v) <= ours, "a dependency needs Rust {v}, Cargo.toml promises {ours:?}");
+            assert!(
+                version(v) <= ours,
+                "a dependency needs Rust {v}, Cargo.toml promises {ours:?}"
+            );
             checked += 1;
         }
     }

@@ -171,6 +171,19 @@ pub(super) fn resolve(
     if samples == 0 {
         return Err(ctx.invalid("render.samples", 0, "no samples", "at least 1"));
     }
+    if let Sensor::Image(camera) = &sensor {
+        // An image's work is counted in samples × pixels (u64).
+        let (w, h) = camera.size();
+        let pixels = (w * h) as u64;
+        if samples.checked_mul(pixels).is_none_or(|n| n > 1 << 62) {
+            return Err(ctx.invalid(
+                "render.samples",
+                samples,
+                &format!("too many samples for an image of {pixels} pixels"),
+                &format!("at most {} per pixel at this resolution", (1u64 << 62) / pixels),
+            ));
+        }
+    }
     let majorant_scale = ctx.range(
         "render.majorant_scale",
         render.majorant_scale.unwrap_or(1.0),
