@@ -262,3 +262,58 @@ fn the_direct_sun_table_has_no_undefined_values_for_any_sensor() {
         }
     }
 }
+
+#[test]
+fn the_readme_documents_every_output_attribute_and_column() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let outputs = &readme[readme.find("## Outputs").unwrap()..readme.find("## Transport").unwrap()];
+    let dir = tempfile::tempdir().unwrap();
+    let job = "[spectrum]\nwavelengths_nm = [550.0]\n[sun]\nangular_radius_deg = 0.2666\n\
+               [sensor]\ntype = \"fisheye\"\nresolution = 4\n[render]\nsamples = 2\n[output]\nsun = true\n";
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["render", "job.toml", "--out", "o", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    // The EXR's own attributes (OpenEXR's standard ones aside).
+    let standard = [
+        "channels",
+        "compression",
+        "dataWindow",
+        "displayWindow",
+        "lineOrder",
+        "pixelAspectRatio",
+        "screenWindowCenter",
+        "screenWindowWidth",
+    ];
+    let exr = read_exr(&dir.path().join("o/image.exr")).unwrap();
+    assert!(exr.attributes.len() > 20);
+    for (key, _) in exr.attributes.iter().filter(|(k, _)| !standard.contains(&k.as_str())) {
+        assert!(
+            outputs.contains(&format!("`{key}`")),
+            "attribute {key} not in the README's Outputs"
+        );
+    }
+    // Every CSV column and task.toml key.
+    let text = |f: &str| std::fs::read_to_string(dir.path().join("o").join(f)).unwrap();
+    let mut names: Vec<String> = text("sun.csv")
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    names.extend(
+        text("task.toml")
+            .lines()
+            .filter_map(|l| l.split_once(" = ").map(|(k, _)| k.to_string())),
+    );
+    for header in [atmosim::output::RADIANCE_CSV_HEADER, atmosim::output::FLUX_CSV_HEADER] {
+        names.extend(header.split(',').map(String::from));
+    }
+    for name in names {
+        assert!(outputs.contains(&name), "{name} not in the README's Outputs");
+    }
+}

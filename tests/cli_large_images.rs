@@ -54,7 +54,10 @@ fn a_stop_request_is_honoured_within_seconds_on_a_large_image() {
         .and_then(|t| t.parse().ok())
         .unwrap_or_else(|| panic!("no checkpoint time in {log}"));
     let wave = latency.as_secs_f64() - write;
-    assert!(wave < 3.0, "{wave:.2} s to the end of the wave (and {write:.2} s to write): {log}");
+    assert!(
+        wave < 3.0,
+        "{wave:.2} s to the end of the wave (and {write:.2} s to write): {log}"
+    );
     assert!(latency < Duration::from_secs(30), "{latency:?}: {log}");
     let cp = d.join("sky/checkpoints/0001-of-0001.state");
     let state = StateFile::read(&cp).unwrap().state;
