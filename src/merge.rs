@@ -14,6 +14,9 @@ use crate::job::Job;
 use crate::task_output::{self, RunInfo};
 use crate::unit::{Layout, UnitState};
 
+/// Most missing shards a refusal names.
+const MAX_NAMED: usize = 10;
+
 /// What a merge did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Merged {
@@ -150,15 +153,25 @@ pub fn merge(out_dir: &Path, log: &dyn Fn(&str)) -> Result<Merged> {
                 )));
             }
         }
-        let absent: Vec<String> = (1..=n)
-            .filter(|k| !seen.contains_key(k))
-            .map(|k| format!("{k}/{n}"))
-            .collect();
-        if !absent.is_empty() {
+        // The count comes from the files: name the first few missing
+        // shards only, never walk all of a count that may be 2⁶³.
+        let missing = n - seen.len() as u64;
+        if missing > 0 {
+            let named: Vec<String> = (1..=n)
+                .filter(|k| !seen.contains_key(k))
+                .take(MAX_NAMED)
+                .map(|k| format!("{k}/{n}"))
+                .collect();
+            let more = missing - named.len() as u64;
             return Err(refuse(format!(
-                "task {t} ({}): missing shard(s) {}",
+                "task {t} ({}): missing shard(s) {}{}",
                 task.name,
-                absent.join(", ")
+                named.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
             )));
         }
         let shared = job.spectral_scene(task).is_some();

@@ -125,6 +125,13 @@ pub fn canonical_attribute_order(bytes: &mut [u8]) -> std::result::Result<(), St
     Ok(())
 }
 
+/// The largest ratio of decoded pixel bytes to file bytes of an EXR that
+/// the exr crate reads: PXR24's, deflate's 1032:1 (RFC 1951: a 258-byte
+/// match in about 2 bits) times 4/3 (32-bit floats stored in 24 bits).
+/// ZIP reaches 1032:1, PIZ's Huffman run codes about 450:1, RLE 64:1, B44
+/// about 11:1.
+const MAX_EXPANSION: u128 = 1376;
+
 /// What [`read_exr`] returns.
 pub struct ExrContents {
     pub width: usize,
@@ -137,15 +144,46 @@ pub struct ExrContents {
 /// Reads back the channels and text attributes of an EXR written by
 /// [`write_exr`]: for tests and tools.
 pub fn read_exr(path: &Path) -> Result<ExrContents> {
-    let fail = |message: String| Error::io(path, std::io::Error::other(message));
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_exr_bytes(&bytes, &path.display().to_string())
+}
+
+/// Reads the channels and text attributes of the first layer of an EXR
+/// held in memory; `name` names it in errors. Every way the bytes can be
+/// wrong is a [`Error::Data`] naming the file.
+pub fn read_exr_bytes(bytes: &[u8], name: &str) -> Result<ExrContents> {
+    let bad = |message: &str| Error::data(name, format!("not a readable OpenEXR file: {message}"));
+    // The exr crate allocates every channel of a layer before it reads a
+    // block, at the size the header states: refuse sizes the bytes cannot
+    // hold (a damaged header of a 1 kB file can state 2¹⁶ × 2¹⁶ pixels).
+    let meta = MetaData::read_from_buffered(bytes, false).map_err(|e| bad(&e.to_string()))?;
+    for header in meta.headers.iter() {
+        let (width, height) = (header.layer_size.0 as u128, header.layer_size.1 as u128);
+        let pixel_bytes: u128 = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u128)
+            .sum();
+        if width * height * pixel_bytes.max(1) > MAX_EXPANSION * bytes.len() as u128 {
+            return Err(bad(&format!(
+                "a layer of {width} × {height} pixels and {} channels cannot be held in {} bytes",
+                header.channels.list.len(),
+                bytes.len()
+            )));
+        }
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
-        .from_file(path)
-        .map_err(|e| fail(e.to_string()))?;
+        // The images read back are small; the parallel reader would start a
+        // thread pool for each.
+        .non_parallel()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| bad(&e.to_string()))?;
     let layer = image.layer_data;
     let size = layer.size;
     let channels = layer

@@ -11,6 +11,9 @@ pub const DEFAULT_ALTITUDE_NODES: usize = 32;
 pub const DEFAULT_DISTANCE_NODES: usize = 64;
 /// Default ratio-tracking samples per point.
 pub const DEFAULT_SAMPLES: u64 = 1000;
+/// Most nodes per axis: the grid's node lists are built when the job is
+/// read, so a mistyped count (say 10¹²) must be refused, not allocated.
+pub const MAX_NODES: i64 = 100_000;
 
 pub(super) fn resolve(
     ctx: &Ctx,
@@ -22,8 +25,9 @@ pub(super) fn resolve(
     let nodes = |key: &str, v: Option<i64>, default: usize| -> Result<usize> {
         match v {
             None => Ok(default),
-            Some(n) if n >= 2 => Ok(n as usize),
-            Some(n) => Err(ctx.invalid(key, n, "fewer than 2 nodes", "2 or more")),
+            Some(n) if (2..=MAX_NODES).contains(&n) => Ok(n as usize),
+            Some(n) if n < 2 => Err(ctx.invalid(key, n, "fewer than 2 nodes", &format!("2 to {MAX_NODES}"))),
+            Some(n) => Err(ctx.invalid(key, n, "too many nodes", &format!("2 to {MAX_NODES}"))),
         }
     };
     let n_a = nodes(
