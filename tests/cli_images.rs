@@ -4,7 +4,7 @@
 mod common;
 
 use atmosim::openexr::read_exr;
-use common::atmosim;
+use common::{atmosim, run_job};
 
 const JOB: &str = "[atmosphere]\nvisibility_km = [30.0, 60.0]\n[spectrum]\nwavelengths_nm = [450.0, 550.0]\n\
                    [sun]\nelevation_deg = 20.0\n[ground]\nalbedo = [0.0, 0.5]\n\
@@ -230,18 +230,11 @@ fn the_direct_sun_table_has_no_undefined_values_for_any_sensor() {
         ),
     ];
     for (sensor, sun, header, in_image) in cases {
-        let dir = tempfile::tempdir().unwrap();
         let job = format!(
             "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[sun]\n{sun}\n[sensor]\n{sensor}\n\
              [render]\nsamples = 4\n[output]\nsun = true\npreview = false\n"
         );
-        std::fs::write(dir.path().join("job.toml"), &job).unwrap();
-        let out = atmosim()
-            .current_dir(dir.path())
-            .args(["render", "job.toml", "--out", "o", "-q"])
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let dir = run_job(&job, &["render", "job.toml", "--out", "o", "-q"]);
         let text = std::fs::read_to_string(dir.path().join("o/sun.csv")).unwrap();
         let mut lines = text.lines();
         assert_eq!(lines.next(), Some(header), "{sensor} {sun}");
@@ -267,16 +260,9 @@ fn the_direct_sun_table_has_no_undefined_values_for_any_sensor() {
 fn the_readme_documents_every_output_attribute_and_column() {
     let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
     let outputs = &readme[readme.find("## Outputs").unwrap()..readme.find("## Transport").unwrap()];
-    let dir = tempfile::tempdir().unwrap();
     let job = "[spectrum]\nwavelengths_nm = [550.0]\n[sun]\nangular_radius_deg = 0.2666\n\
                [sensor]\ntype = \"fisheye\"\nresolution = 4\n[render]\nsamples = 2\n[output]\nsun = true\n";
-    std::fs::write(dir.path().join("job.toml"), job).unwrap();
-    let out = atmosim()
-        .current_dir(dir.path())
-        .args(["render", "job.toml", "--out", "o", "-q"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
+    let dir = run_job(job, &["render", "job.toml", "--out", "o", "-q"]);
     // The EXR's own attributes (OpenEXR's standard ones aside).
     let standard = [
         "channels",

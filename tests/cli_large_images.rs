@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use assert_cmd::cargo::CommandCargoExt;
 use atmosim::checkpoint::StateFile;
-use common::atmosim;
+use common::{atmosim, sigterm};
 
 /// 8.4 million pixels at one wavelength: a sample of every pixel takes
 /// several seconds on two cores, their solid angles a while to compute.
@@ -35,11 +35,7 @@ fn a_stop_request_is_honoured_within_seconds_on_a_large_image() {
     std::thread::sleep(Duration::from_secs(4));
     assert!(child.try_wait().unwrap().is_none(), "the render ended before SIGTERM");
     let sent = Instant::now();
-    let ok = Process::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
+    sigterm(&child);
     let out = child.wait_with_output().unwrap();
     let latency = sent.elapsed();
     let log = String::from_utf8_lossy(&out.stderr).to_string();

@@ -7,7 +7,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use common::atmosim;
+use common::{atmosim, files_under};
 
 const IMAGE_JOB: &str = "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[sun]\nelevation_deg = 20.0\n\
                          angular_radius_deg = 0.2666\n[ground]\nalbedo = [0.0, 0.5]\n\
@@ -27,20 +27,13 @@ fn checksum(bytes: &[u8]) -> u64 {
 
 /// The checksum of every file under `dir`, by relative path.
 fn checksums(dir: &Path) -> BTreeMap<String, u64> {
-    let mut out = BTreeMap::new();
-    let mut dirs = vec![dir.to_path_buf()];
-    while let Some(d) = dirs.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                dirs.push(p);
-            } else {
-                let rel = p.strip_prefix(dir).unwrap().display().to_string();
-                out.insert(rel, checksum(&std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    out
+    files_under(dir)
+        .iter()
+        .map(|p| {
+            let rel = p.strip_prefix(dir).unwrap().display().to_string();
+            (rel, checksum(&std::fs::read(p).unwrap()))
+        })
+        .collect()
 }
 
 /// Runs `atmosim ARGS` in `dir`; panics unless it succeeds.

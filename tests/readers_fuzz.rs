@@ -1009,34 +1009,8 @@ fn structured_uvspec() -> BoxedStrategy<String> {
         .boxed()
 }
 
-/// The unit tests' input with every keyword of the subset.
-const EVERY_KEYWORD: &str = "\
-atmosphere_file ../data/atmmod/afglms.dat
-source solar
-wavelength 550 550
-sza 30
-phi0 40
-umu -1 -0.5 0.5
-phi 0 90
-zout sur 2.5 toa
-albedo 0.3
-earth_radius 6371
-mol_abs_param crs
-crs_model rayleigh Bodhaine
-crs_model o3 Bogumil
-mol_modify O3 300 DU
-mol_modify NO2 0 DU
-aerosol_file tau tau.dat
-aerosol_file ssa ssa.dat
-aerosol_file gg gg.dat
-output_quantity transmittance
-rte_solver polradtran
-polradtran nstokes 3
-pseudospherical
-number_of_streams 16
-output_user lambda zout edir edn eup uu
-quiet
-";
+/// The uvspec unit test's input with every keyword of the subset.
+const EVERY_KEYWORD: &str = include_str!("data/every_keyword.inp");
 
 fn uvspec_text() -> BoxedStrategy<String> {
     let mut inputs = repo_files("validation/libradtran", "inp");

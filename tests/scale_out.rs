@@ -310,11 +310,7 @@ fn sigterm_writes_a_checkpoint_and_resume_completes_exactly() {
         child.try_wait().unwrap().is_none(),
         "the render ended before SIGTERM: make it longer"
     );
-    let ok = Process::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
+    common::sigterm(&child);
     let out = child.wait_with_output().unwrap();
     let log = String::from_utf8_lossy(&out.stderr).to_string();
     assert_eq!(out.status.code(), Some(143), "{log}");

@@ -29,39 +29,8 @@ fn every_keyword_of_the_subset_is_read() {
         };
         Ok(format!("# z value\n2.0 0.0\n1.0 {v}\n0.0 {v}\n"))
     };
-    let text = "\
-# comment line
-data_files_path /opt/libRadtran/data   # trailing comment
-atmosphere_file ../data/atmmod/afglms.dat
-source solar
-wavelength 550 550
-sza 30
-phi0 40
-umu -1 -0.5 0.5
-phi 0 90
-zout sur 2.5 toa
-albedo 0.3
-earth_radius 6371
-mol_abs_param crs
-crs_model rayleigh Bodhaine
-crs_model o3 Bogumil
-mol_modify O3 300 DU
-mol_modify NO2 0 DU
-mol_modify O4 0 CM_2
-aerosol_default
-aerosol_file tau tau.dat
-aerosol_file ssa ssa.dat
-aerosol_file gg gg.dat
-output_quantity transmittance
-rte_solver polradtran
-polradtran nstokes 3
-polradtran src_code 2
-pseudospherical
-number_of_streams 16
-output_user lambda zout edir edn eup uu
-quiet
-verbose
-";
+    // Every keyword of the subset (also a seed of tests/readers_fuzz.rs).
+    let text = include_str!("../../tests/data/every_keyword.inp");
     let u = UvspecInput::parse(text, "t.inp", &layer).unwrap();
     assert_eq!(u.profile, ProfileChoice::Builtin("midlatitude_summer".into()));
     assert_eq!(

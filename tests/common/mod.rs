@@ -129,23 +129,29 @@ pub fn layers_toml(layers: &[(f64, f64, f64, f64)], depol: f64) -> String {
     s
 }
 
-/// All numbers of the CSV files of every task under `out`, by file.
-pub fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
+/// Every file under `dir` (recursively), sorted.
+pub fn files_under(dir: &Path) -> Vec<std::path::PathBuf> {
     let mut files = Vec::new();
-    let mut dirs = vec![out.to_path_buf()];
+    let mut dirs = vec![dir.to_path_buf()];
     while let Some(d) = dirs.pop() {
         for e in std::fs::read_dir(&d).unwrap() {
             let p = e.unwrap().path();
             if p.is_dir() {
                 dirs.push(p);
-            } else if p.extension().is_some_and(|x| x == "csv") {
+            } else {
                 files.push(p);
             }
         }
     }
     files.sort();
     files
+}
+
+/// All numbers of the CSV files of every task under `out`, by file.
+pub fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
+    files_under(out)
         .iter()
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
         .map(|p| {
             let text = std::fs::read_to_string(p).unwrap();
             let values = text
@@ -161,6 +167,29 @@ pub fn csv_values(out: &Path) -> Vec<(String, Vec<f64>)> {
 /// The atmosim binary, run as a user runs it.
 pub fn atmosim() -> assert_cmd::Command {
     assert_cmd::Command::cargo_bin("atmosim").unwrap()
+}
+
+/// Writes `job` as `job.toml` in a fresh directory and runs `atmosim ARGS`
+/// there; panics unless it succeeds. Returns the directory.
+pub fn run_job(job: &str, args: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let out = atmosim().current_dir(dir.path()).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir
+}
+
+/// Sends SIGTERM to a running child process.
+pub fn sigterm(child: &std::process::Child) {
+    let ok = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
 }
 
 /// `atmosim COMMAND job.toml` of `job`, in a fresh directory, exits with
