@@ -181,6 +181,29 @@ fn bad_image_jobs_are_refused_before_anything_is_written() {
         ("[atmosphere]\nvisibility_km = []\n", "atmosphere.visibility_km"),
         ("[observer]\naltitude_km = []\n", "observer.altitude_km"),
         ("[ground]\nalbedo = [0.1, 1.2]\n", "ground.albedo"),
+        // Keys of one kind of sensor, which the other would ignore.
+        (
+            "[sensor]\ntype = \"directions\"\npixel_filter = \"center\"\n",
+            "sensor.pixel_filter",
+        ),
+        ("[sensor]\nresolution = 32\n", "sensor.resolution"),
+        (
+            "[sensor]\ntype = \"sphere\"\nhemisphere = \"down\"\n",
+            "sensor.hemisphere",
+        ),
+        (
+            "[sensor]\ntype = \"panorama\"\nprojection = \"equisolid\"\n",
+            "sensor.projection",
+        ),
+        (
+            "[sensor]\ntype = \"fisheye\"\nview_zenith_deg = [10.0]\n",
+            "sensor.view_zenith_deg",
+        ),
+        ("[sensor]\ntype = \"sphere\"\nfluxes = true\n", "sensor.fluxes"),
+        (
+            "[sensor]\ntype = \"fisheye\"\ndirections = [[0.0, 0.0]]\n",
+            "sensor.directions",
+        ),
     ] {
         common::assert_refused(
             "render",

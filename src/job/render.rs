@@ -152,6 +152,7 @@ pub(super) fn resolve(
 
     let sensor_raw = sensor.unwrap_or_default();
     let kind = sensor_raw.kind.unwrap_or(RawSensorKind::Directions);
+    check_sensor_keys(ctx, kind, &sensor_raw)?;
     let sensor = match kind {
         RawSensorKind::Directions => Sensor::Directions(resolve_directions(ctx, &sensor_raw)?),
         image => Sensor::Image(resolve_camera(ctx, image, &sensor_raw)?),
@@ -242,6 +243,51 @@ pub(super) fn resolve(
         preview: output.preview.unwrap_or(true),
         exposure,
     })
+}
+
+/// Refuses the keys of one kind of sensor given to the other, which it
+/// would ignore (a directions sensor has no pixels; an image no list of
+/// directions and no flux estimates).
+fn check_sensor_keys(ctx: &Ctx, kind: RawSensorKind, sensor: &RawSensor) -> Result<()> {
+    let image = !matches!(kind, RawSensorKind::Directions);
+    let keys: [(&str, bool, bool); 8] = [
+        ("sensor.resolution", sensor.resolution.is_some(), true),
+        ("sensor.hemisphere", sensor.hemisphere.is_some(), true),
+        ("sensor.projection", sensor.projection.is_some(), true),
+        ("sensor.pixel_filter", sensor.pixel_filter.is_some(), true),
+        ("sensor.view_zenith_deg", sensor.view_zenith_deg.is_some(), false),
+        ("sensor.azimuth_deg", sensor.azimuth_deg.is_some(), false),
+        ("sensor.directions", sensor.directions.is_some(), false),
+        ("sensor.fluxes", sensor.fluxes.is_some(), false),
+    ];
+    let fisheye_only = ["sensor.hemisphere", "sensor.projection"];
+    for (key, given, for_images) in keys {
+        let fits = if for_images {
+            image && (!fisheye_only.contains(&key) || matches!(kind, RawSensorKind::Fisheye))
+        } else {
+            !image
+        };
+        if given && !fits {
+            let (reason, valid) = if for_images && image {
+                (
+                    "applies to the fisheye sensor only",
+                    "leave it out, or sensor.type = \"fisheye\"",
+                )
+            } else if for_images {
+                (
+                    "applies to image sensors only; a directions sensor would ignore it",
+                    "leave it out, or sensor.type = \"fisheye\", \"panorama\" or \"sphere\"",
+                )
+            } else {
+                (
+                    "applies to the directions sensor only; an image sensor would ignore it",
+                    "leave it out, or sensor.type = \"directions\"",
+                )
+            };
+            return Err(ctx.invalid(key, "(given)", reason, valid));
+        }
+    }
+    Ok(())
 }
 
 fn resolve_directions(ctx: &Ctx, sensor: &RawSensor) -> Result<Vec<Direction>> {
