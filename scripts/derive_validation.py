@@ -36,6 +36,7 @@ Outputs (relative to the repository root):
   validation/disort/pydisort.txt
   validation/libradtran/uvspec_540nm_sza45.txt
   validation/libradtran/H_540nm_aer_{tau,ssa,gg}.txt
+  validation/published/mystic_twilight_620nm.txt
 
 At the end the script runs self-checks (assertions) on what it wrote:
 row counts, physics-based sign checks against an independent single-scattering
@@ -1282,6 +1283,48 @@ def self_checks(shared, res):
     return report
 
 
+# ---------------------------------------------------------------------------
+# 8. Spherical MYSTIC at twilight (libRadtran 2.0.3)
+# ---------------------------------------------------------------------------
+
+def mystic_twilight(shared):
+    src = "validation/mystic/A_620nm_sun-2_spherical_mystic.csv"
+    comments, rows = read_csv(os.path.join(shared, src))
+    out = []
+    for r in rows:
+        # One set-up throughout: atmosphere A, 620 nm, sun at -2 degrees.
+        assert (r["atmosphere"], r["wavelength_nm"], r["sun_elevation_deg"]) == ("A", "620", "-2"), r
+        out.append([
+            keep(r["observer_km"]), keep(r["view_zenith_deg"]), keep(r["azimuth_deg"]),
+            keep(r["I"]), keep(r["Q"]), keep(r["U"]),
+            keep(r["I_std"]), keep(r["Q_std"]), keep(r["U_std"]),
+        ])
+    header = [
+        "Spherical MYSTIC at twilight: libRadtran 2.0.3 MYSTIC in full spherical "
+        "geometry (mc_spherical 1D), polarised, backward; atmosphere A (afglus.dat, "
+        "Bodhaine Rayleigh, Bogumil O3, no other absorber, no aerosol), Lambertian "
+        "albedo 0.2, earth radius 6370 km, top 120 km, 620 nm, sun elevation -2 deg; "
+        "observers at 0 and 10 km.",
+        "source_file: shared/%s" % src,
+        "derived by %s" % SCRIPT,
+        "conversion: none (the source is already in atmosim's directions, Stokes "
+        "frame, signs and normalisation, as its header states); I_se..U_se = "
+        "MYSTIC's I_std..U_std, the standard deviation of each estimate; "
+        "directions run twice with different seeds are kept as separate rows.",
+        "geometry: spherical",
+        "radius_km: 6370",
+        "top_km: 120",
+        "wavelength_nm: 620",
+        "sun_elevation_deg: -2",
+        "albedo: 0.2",
+        "uncertainty: Monte Carlo, standard errors in I_se Q_se U_se",
+    ] + COMMON + quote_source(comments)
+    cols = "zout_km view_zenith_deg azimuth_deg I Q U I_se Q_se U_se".split()
+    write_table("validation/published/mystic_twilight_620nm.txt", header, cols, out,
+                "spherical MYSTIC, sun -2 deg, 620 nm")
+    return rows, out
+
+
 def main():
     shared = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "..", "shared")
     shared = os.path.abspath(shared)
@@ -1295,6 +1338,7 @@ def main():
     res["disort"] = disort_tests(shared)
     res["pydisort"] = pydisort(shared)
     res["uvspec"], res["h"] = uvspec(shared)
+    res["mystic"] = mystic_twilight(shared)
     report = self_checks(shared, res)
     print("wrote (relative to %s):" % ROOT)
     for rel, (n, what) in WRITTEN.items():

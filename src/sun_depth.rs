@@ -1,7 +1,11 @@
 //! An approximate optical depth toward the sun from any point, for
 //! sun-aware sampling of next-event points along a flight (`integrator`).
 //! Only the efficiency of that sampling depends on it: every contribution
-//! is weighted by its true value over the sampling density.
+//! is weighted by its true value over the sampling density, and where the
+//! table is only approximate the sampling is mixed with the flight's own
+//! density, so that no weight can grow without bound (a sunlit point just
+//! outside the shadow, between a blocked node and a sunlit one, gets a
+//! depth near 60 from the table).
 //!
 //! - Plane-parallel: exact, τ_above(z)/μ0 (τ_above linear inside a layer).
 //! - Spherical: bilinear in a table over the radius (the levels and their
@@ -106,6 +110,12 @@ impl SunDepth {
                 }
             }
         }
+    }
+
+    /// True where the depth is exact (plane-parallel geometry), so that
+    /// sampling may follow it alone.
+    pub fn is_exact(&self) -> bool {
+        matches!(self, SunDepth::PlaneParallel { .. })
     }
 
     /// Approximate optical depth from `x` toward the sun along `sun`.

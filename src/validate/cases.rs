@@ -33,6 +33,7 @@ const KOKHANOVSKY: (&str, &str) = reference!("published/kokhanovsky2010.txt");
 const KORKIN: (&str, &str) = reference!("published/korkin_b2_single_scatter.txt");
 const DISORT3: (&str, &str) = reference!("disort/disort_test3_128streams.txt");
 const PYDISORT: (&str, &str) = reference!("disort/pydisort.txt");
+const MYSTIC_TWILIGHT: (&str, &str) = reference!("published/mystic_twilight_620nm.txt");
 
 /// A reference table.
 pub(super) fn table((name, text): (&str, &str)) -> Result<Table> {
@@ -155,6 +156,19 @@ fn iprt_compare(
     samples: u64,
     job_for: impl Fn(f64) -> String,
 ) -> Result<Vec<Value>> {
+    mystic_compare(reference, stride, samples, 7, job_for)
+}
+
+/// A MYSTIC file (columns zout_km θ φ I Q U, then the standard errors of
+/// I, Q and U from column `se_at`): `job_for(zout)` is the job text for the
+/// observer at each output level; every `stride`-th direction is rendered.
+fn mystic_compare(
+    reference: (&str, &str),
+    stride: usize,
+    samples: u64,
+    se_at: usize,
+    job_for: impl Fn(f64) -> String,
+) -> Result<Vec<Value>> {
     let t = table(reference)?;
     let mut levels: Vec<f64> = t.column(0);
     levels.sort_by(f64::total_cmp);
@@ -166,7 +180,17 @@ fn iprt_compare(
         let tallies = render(&job(&job_for(zout))?, zout, &dirs, samples);
         let label = format!("zout {zout}");
         for ((r, d), tl) in rows.iter().zip(&dirs).zip(&tallies) {
-            push(&mut values, &label, *d, tl, &[0, 1, 2], &r[3..6], &r[7..10], 0.0, true);
+            push(
+                &mut values,
+                &label,
+                *d,
+                tl,
+                &[0, 1, 2],
+                &r[3..6],
+                &r[se_at..se_at + 3],
+                0.0,
+                true,
+            );
         }
     }
     Ok(values)
@@ -217,6 +241,20 @@ pub fn iprt_b(b2: bool, depol: f64, samples: u64) -> Result<Vec<Value>> {
     let atmosphere = iprt_b_toml(b2, depol)?;
     iprt_compare(if b2 { IPRT_B2 } else { IPRT_B1 }, 4, samples, |zout| {
         format!("{atmosphere}[sun]\nzenith_deg = 60.0\n[observer]\naltitude_km = {zout:?}\n[render]\nseed = 5\n")
+    })
+}
+
+/// Spherical MYSTIC at twilight: the gas-only US-standard atmosphere at
+/// 620 nm (ozone's Chappuis band) with the sun 2° below the horizon, seen
+/// from the ground and from 10 km, every direction.
+fn mystic_twilight(samples: u64) -> Result<Vec<Value>> {
+    mystic_compare(MYSTIC_TWILIGHT, 1, samples, 6, |zout| {
+        format!(
+            "[planet]\nradius_km = 6370.0\ntop_km = 120.0\n[atmosphere]\nprofile = \"us_standard\"\n\
+             ozone = \"bogumil\"\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [620.0]\n\
+             [sun]\nelevation_deg = -2.0\n[ground]\nalbedo = 0.2\n[observer]\naltitude_km = {zout:?}\n\
+             [render]\nseed = 9\n"
+        )
     })
 }
 
@@ -453,6 +491,18 @@ pub(super) fn published() -> Vec<Case> {
             default_samples: 10_000,
             informational: false,
             run: |n| korkin("sun_aware", n),
+        },
+        Case {
+            name: "mystic_twilight",
+            title: "Spherical MYSTIC at twilight: sun −2°, 620 nm, ozone",
+            reference: "validation/published/mystic_twilight_620nm.txt (libRadtran 2.0.3 MYSTIC, mc_spherical 1D, \
+                        polarised), zout 0 and 10 km, every direction",
+            setup: "spherical (6370 km, top 120 km), polarised, US standard, Bogumil ozone, no aerosol, albedo 0.2; \
+                    sun-aware connections (auto below 10°)",
+            floor: MYSTIC_FLOOR,
+            default_samples: 40_000,
+            informational: false,
+            run: mystic_twilight,
         },
         Case {
             name: "disort_test3",
