@@ -151,6 +151,27 @@ impl StateFile {
     }
 }
 
+/// The job hash a state file names, read from its header alone (the
+/// sums, which may be gigabytes, are not read or checked); `None` if it is
+/// not a state file of this format.
+pub fn job_hash_of(path: &Path) -> Option<String> {
+    use std::io::Read;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take((MAGIC.len() + 8 + 64) as u64)
+        .read_to_end(&mut head)
+        .ok()?;
+    if !head.starts_with(MAGIC) {
+        return None;
+    }
+    Reader {
+        bytes: &head,
+        at: MAGIC.len(),
+    }
+    .string()
+}
+
 /// Writes the state of a unit of `job` atomically, streaming it (no copy
 /// of the sums in memory); returns the file's size in bytes.
 pub fn write_state(job: &Job, state: &UnitState, path: &Path) -> Result<u64> {
@@ -311,6 +332,21 @@ mod tests {
             back.state.tallies[0][0].sum[3].to_bits(),
             f.state.tallies[0][0].sum[3].to_bits()
         );
+    }
+
+    #[test]
+    fn the_job_hash_reads_from_the_header_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.state");
+        let mut bytes = sample().to_bytes();
+        // Damage past the header does not hide the hash.
+        let n = bytes.len();
+        bytes.truncate(n - 100);
+        std::fs::write(&p, &bytes).unwrap();
+        assert_eq!(job_hash_of(&p).as_deref(), Some("0123456789abcdef"));
+        std::fs::write(&p, b"not a state file").unwrap();
+        assert_eq!(job_hash_of(&p), None);
+        assert_eq!(job_hash_of(&dir.path().join("missing")), None);
     }
 
     #[test]

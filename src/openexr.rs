@@ -141,6 +141,24 @@ pub struct ExrContents {
     pub attributes: Vec<(String, String)>,
 }
 
+/// The text attributes of the first layer of the EXR at `path`, from its
+/// header alone (no pixel is read); `None` if it is not a readable EXR.
+pub fn read_exr_attributes(path: &Path) -> Option<Vec<(String, String)>> {
+    let meta = MetaData::read_from_file(path, false).ok()?;
+    let header = meta.headers.first()?;
+    Some(text_attributes(&header.own_attributes.other))
+}
+
+/// The text-valued attributes of a map, as (key, value).
+fn text_attributes(map: &std::collections::HashMap<Text, AttributeValue>) -> Vec<(String, String)> {
+    map.iter()
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect()
+}
+
 /// Reads back the channels and text attributes of an EXR written by
 /// [`write_exr`]: for tests and tools.
 pub fn read_exr(path: &Path) -> Result<ExrContents> {
@@ -195,15 +213,7 @@ pub fn read_exr_bytes(bytes: &[u8], name: &str) -> Result<ExrContents> {
             samples: c.sample_data.values_as_f32().collect(),
         })
         .collect();
-    let attributes = layer
-        .attributes
-        .other
-        .iter()
-        .filter_map(|(k, v)| match v {
-            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
-            _ => None,
-        })
-        .collect();
+    let attributes = text_attributes(&layer.attributes.other);
     Ok(ExrContents {
         width: size.0,
         height: size.1,
@@ -269,9 +279,14 @@ mod tests {
         let text = String::from_utf8_lossy(&first);
         let positions: Vec<usize> = (0..24).map(|k| text.find(&format!("key{k:02}\0")).unwrap()).collect();
         assert!(positions.windows(2).all(|w| w[0] < w[1]), "{positions:?}");
-        // And the file still reads.
+        // And the file still reads, whole and from its header alone.
         let exr = read_exr(&dir.path().join("a.exr")).unwrap();
         assert_eq!(exr.attributes.iter().filter(|(k, _)| k.starts_with("key")).count(), 24);
+        let mut header = read_exr_attributes(&dir.path().join("a.exr")).unwrap();
+        let mut whole = exr.attributes;
+        header.sort();
+        whole.sort();
+        assert_eq!(header, whole);
     }
 
     #[test]

@@ -6,11 +6,11 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::checkpoint::StateFile;
+use crate::checkpoint;
 use crate::error::{Error, Result};
 use crate::job::Job;
-use crate::openexr::read_exr;
-use crate::task_output::TASK_FILE;
+use crate::openexr::read_exr_attributes;
+use crate::task_output::{self, TASK_FILE};
 
 /// Where a run's outputs go, and how the user named it (for errors).
 #[derive(Debug, Clone)]
@@ -122,28 +122,19 @@ fn check_writable(dir: &Path) -> std::result::Result<(), (PathBuf, std::io::Erro
 }
 
 /// The first file in `dir` that belongs to a job other than `hash`, with
-/// that job's hash.
+/// that job's hash. Every check reads a header only: a checkpoint may hold
+/// gigabytes of sums.
 fn other_job_in(dir: &Path, hash: &str) -> Option<(PathBuf, String)> {
     let other = |file: PathBuf, found: Option<String>| found.filter(|h| h != hash).map(|h| (file, h));
-    let task_file = dir.join(TASK_FILE);
-    if let Ok(text) = std::fs::read_to_string(&task_file) {
-        let found = text.lines().find_map(|l| {
-            let v = l.trim().strip_prefix("job_hash = ")?;
-            Some(v.trim_matches('"').to_string())
-        });
-        if let Some(x) = other(task_file, found) {
-            return Some(x);
-        }
+    if let Some(x) = other(dir.join(TASK_FILE), task_output::job_hash_of(dir)) {
+        return Some(x);
     }
     for exr in ["image.exr", "transmittance.exr"] {
         let path = dir.join(exr);
-        if path.is_file() {
-            let found = read_exr(&path)
-                .ok()
-                .and_then(|c| c.attributes.into_iter().find(|(k, _)| k == "job_hash").map(|(_, v)| v));
-            if let Some(x) = other(path, found) {
-                return Some(x);
-            }
+        let found =
+            read_exr_attributes(&path).and_then(|a| a.into_iter().find(|(k, _)| k == "job_hash").map(|(_, v)| v));
+        if let Some(x) = other(path, found) {
+            return Some(x);
         }
     }
     for sub in ["shards", "checkpoints"] {
@@ -152,8 +143,8 @@ fn other_job_in(dir: &Path, hash: &str) -> Option<(PathBuf, String)> {
         };
         let mut files: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
         files.sort();
-        for path in files.into_iter().filter(|p| p.is_file()) {
-            let found = StateFile::read(&path).ok().map(|f| f.state.job_hash);
+        for path in files {
+            let found = checkpoint::job_hash_of(&path);
             if let Some(x) = other(path, found) {
                 return Some(x);
             }

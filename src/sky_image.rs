@@ -10,7 +10,7 @@ use crate::color::{srgb_preview, write_png};
 use crate::error::Result;
 use crate::film::ImageLayer;
 use crate::job::{AtmosphereSource, Job, Task, Units};
-use crate::openexr::{Channel, read_exr, wavelength_label, write_exr};
+use crate::openexr::{Channel, wavelength_label, write_exr};
 use crate::output::write_atomic;
 use crate::shard::Shard;
 use crate::sun_table::{SUN_FILE, sun_csv};
@@ -60,13 +60,6 @@ pub fn render(
 /// The EXR layer name of a wavelength and albedo: `540nm_a030`.
 pub fn layer_name(wavelength_nm: f64, albedo: f64) -> String {
     format!("{}_a{:03.0}", wavelength_label(wavelength_nm), albedo * 100.0)
-}
-
-/// True when `dir` already holds this task's image from the same job.
-pub fn is_complete(dir: &Path, job: &Job) -> bool {
-    read_exr(&dir.join(IMAGE_FILE))
-        .map(|exr| exr.attributes.iter().any(|(k, v)| k == "job_hash" && *v == job.hash))
-        .unwrap_or(false)
 }
 
 /// Writes the task's files into `dir`; returns the preview exposure used.

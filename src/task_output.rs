@@ -61,8 +61,16 @@ pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitSt
 
 /// True when `dir` holds this task of the same job, complete.
 pub fn is_complete(dir: &Path, job: &Job) -> bool {
-    std::fs::read_to_string(dir.join(TASK_FILE))
-        .is_ok_and(|text| text.lines().any(|l| l.trim() == format!("job_hash = \"{}\"", job.hash)))
+    job_hash_of(dir).is_some_and(|h| h == job.hash)
+}
+
+/// The job hash of the complete task in `dir` (its `task.toml`), if any.
+pub fn job_hash_of(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join(TASK_FILE)).ok()?;
+    text.lines().find_map(|l| {
+        let v = l.trim().strip_prefix("job_hash = ")?;
+        Some(v.trim_matches('"').to_string())
+    })
 }
 
 fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunInfo) -> String {
