@@ -452,7 +452,7 @@ pub fn run(
             }
             let start = range.start + state.done[e];
             let work = start..(start + wave_size(est.kind, wave_paths, layout)).min(range.end);
-            let pixels = RunContext {
+            let context = RunContext {
                 job,
                 task,
                 layout,
@@ -464,11 +464,11 @@ pub fn run(
                 EstimateKind::Direction { source, .. } | EstimateKind::Pixels { source } => match source {
                     Source::Shared => {
                         let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                        radiance_wave(scene, &pixels, &est, work.clone(), tallies);
+                        radiance_wave(scene, &context, &est, work.clone(), tallies);
                     }
                     Source::Wavelength(w) => {
                         let scene = scenes.single(w);
-                        radiance_wave(scene, &pixels, &est, work.clone(), tallies);
+                        radiance_wave(scene, &context, &est, work.clone(), tallies);
                     }
                 },
                 EstimateKind::Flux { source, up } => match source {
