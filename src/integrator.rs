@@ -431,22 +431,36 @@ impl Scene {
         let cos0 = (-s0).dot(k_out);
         parts.clear();
         let mut tau = 0.0;
-        let rayleigh_p11 = |rho: f64| PhaseFunction::Rayleigh { depolarization: rho }.p11(cos0);
+        // P11 of each component at the sun's centre, recomputed only when a
+        // layer's depolarisation or asymmetry differs from the last one's.
+        let mut rayleigh = (f64::NAN, 0.0);
+        let mut aerosol = (f64::NAN, 0.0);
         let mut sun1 = match segments.first() {
-            Some((seg, _)) => depth.at(ray.origin + seg.t0 * ray.dir, s0),
+            Some((seg, _)) => depth.at_in_layer(ray.origin + seg.t0 * ray.dir, s0, seg.layer),
             None => return true,
         };
         for &(seg, tau_seg) in segments {
             if !seg.t1.is_finite() {
                 return false;
             }
-            let z = self.geometry.altitude(ray.origin + (0.5 * (seg.t0 + seg.t1)) * ray.dir);
-            let coeffs = self.medium.at(seg.layer, z);
+            let coeffs = self.medium.at_altitude_of(seg.layer, || {
+                self.geometry.altitude(ray.origin + (0.5 * (seg.t0 + seg.t1)) * ray.dir)
+            });
             // σ_s·P11 of the mixture at the sun's centre (scalars only).
-            let c = coeffs.sigma_rayleigh * rayleigh_p11(coeffs.rayleigh_depolarization)
-                + coeffs.sigma_aerosol_sca * PhaseFunction::HenyeyGreenstein { g: coeffs.aerosol_g }.p11(cos0);
+            if rayleigh.0 != coeffs.rayleigh_depolarization {
+                let depolarization = coeffs.rayleigh_depolarization;
+                rayleigh = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
+            }
+            let mut c = coeffs.sigma_rayleigh * rayleigh.1;
+            if coeffs.sigma_aerosol_sca > 0.0 {
+                if aerosol.0 != coeffs.aerosol_g {
+                    let g = coeffs.aerosol_g;
+                    aerosol = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
+                }
+                c += coeffs.sigma_aerosol_sca * aerosol.1;
+            }
             let sun0 = sun1;
-            sun1 = depth.at(ray.origin + seg.t1 * ray.dir, s0);
+            sun1 = depth.at_end_in_layer(ray.origin + seg.t1 * ray.dir, s0, seg.layer);
             parts.push(FlightPart {
                 seg,
                 sun0,
@@ -459,18 +473,36 @@ impl Scene {
             });
             tau += tau_seg;
         }
-        // ∫ c·e^(−(e0 + de·u))·len du over [0, 1], shifted by e_min.
-        let integral = |c: f64, len: f64, e0: f64, de: f64, e_min: f64| c * len * (-(e0 - e_min)).exp() * exp_mean(de);
+        // Both exponents are continuous along the flight (a segment ends
+        // where the next begins), so one exponential per segment boundary
+        // gives both ends of every segment: ∫ c·e^(−e(u))·len du over
+        // [0, 1] with e linear from e0 to e1 is c·len·(w0 − w1)/(e1 − e0),
+        // w = e^(−e) (shifted by the smallest sun exponent, e_min).
         let e_min = parts
             .iter()
             .map(|p| (p.tau0 + p.sun0).min(p.tau0 + p.tau_seg + p.sun1))
             .fold(f64::INFINITY, f64::min);
+        let integral = |c: f64, len: f64, w0: f64, w1: f64, de: f64| {
+            c * len
+                * if de.abs() < 1e-7 {
+                    0.5 * (w0 + w1)
+                } else {
+                    (w0 - w1) / de
+                }
+        };
         let (mut sun_total, mut flight_total) = (0.0, 0.0);
+        let (mut w_sun, mut w_flight) = match parts.first() {
+            Some(p) => ((-(p.sun0 - e_min)).exp(), 1.0),
+            None => return true,
+        };
         for p in parts.iter_mut() {
             let len = p.seg.t1 - p.seg.t0;
-            p.sun_integral = integral(p.c, len, p.tau0 + p.sun0, p.de_sun(), e_min);
+            let w_sun1 = (-(p.tau0 + p.tau_seg + p.sun1 - e_min)).exp();
+            let w_flight1 = (-(p.tau0 + p.tau_seg)).exp();
+            p.sun_integral = integral(p.c, len, w_sun, w_sun1, p.de_sun());
             // The flight's own density: τ starts at 0, its minimum.
-            p.flight_integral = integral(p.c, len, p.tau0, p.tau_seg, 0.0);
+            p.flight_integral = integral(p.c, len, w_flight, w_flight1, p.tau_seg);
+            (w_sun, w_flight) = (w_sun1, w_flight1);
             sun_total += p.sun_integral;
             flight_total += p.flight_integral;
         }
@@ -679,11 +711,6 @@ impl FlightPart {
 /// paths at −4.2° where α = 0.8 stays within 2.4σ
 /// (`tests/twilight_single_scattering.rs`).
 const SUN_AWARE_SHARE: f64 = 0.8;
-
-/// (1 − e^(−d))/d, the mean of e^(−d·u) over u in [0, 1] (1 at d = 0).
-fn exp_mean(d: f64) -> f64 {
-    if d.abs() < 1e-9 { 1.0 } else { -(-d).exp_m1() / d }
-}
 
 /// The state of one path.
 #[derive(Clone)]

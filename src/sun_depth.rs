@@ -31,12 +31,22 @@ pub enum SunDepth {
         levels_km: Vec<f64>,
         tau_above: Vec<f64>,
         mu0: f64,
+        /// False in pseudo-spherical geometry, where the direct beam is
+        /// attenuated along spherical shells and τ_above/μ0 is only an
+        /// approximation of its depth.
+        exact: bool,
     },
     Spherical {
         radius_km: f64,
+        /// The levels and their midpoints: altitude node 2i is level i,
+        /// 2i + 1 the middle of layer i.
         altitudes_km: Vec<f64>,
-        /// depth[altitude][mu node]
-        depth: Vec<Vec<f64>>,
+        /// depth[altitude node · MU_NODES + mu node]
+        depth: Vec<f64>,
+        /// Per layer, the square of its middle radius; per level, 1/radius
+        /// (for points on a level, see [`SunDepth::at_end_in_layer`]).
+        mid_radius_sq: Vec<f64>,
+        inv_level_radius: Vec<f64>,
     },
 }
 
@@ -53,8 +63,10 @@ fn mu_index(mu: f64) -> f64 {
 }
 
 impl SunDepth {
-    /// The table for `medium` and sun direction `sun` (observer frame).
-    pub fn new(medium: &Medium, geometry: &Geometry, sun: DVec3) -> SunDepth {
+    /// The table for `medium` and sun direction `sun` (observer frame);
+    /// `pseudo_spherical` when the direct beam is attenuated along
+    /// spherical shells in an otherwise plane-parallel `geometry`.
+    pub fn new(medium: &Medium, geometry: &Geometry, sun: DVec3, pseudo_spherical: bool) -> SunDepth {
         let levels = medium.levels_km().to_vec();
         match *geometry {
             Geometry::PlaneParallel => {
@@ -68,6 +80,7 @@ impl SunDepth {
                     levels_km: levels,
                     tau_above,
                     mu0: sun.z,
+                    exact: !pseudo_spherical,
                 }
             }
             Geometry::Spherical { radius_km } => {
@@ -77,34 +90,38 @@ impl SunDepth {
                     altitudes.push(0.5 * (w[0] + w[1]));
                 }
                 altitudes.push(levels[levels.len() - 1]);
+                let levels = &levels;
                 let depth = altitudes
                     .iter()
-                    .map(|&z| {
-                        (0..MU_NODES)
-                            .map(|k| {
-                                let mu = mu_node(k);
-                                let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-                                match tracking::layer_at(&levels, z, mu) {
-                                    None if mu >= 0.0 => 0.0,
-                                    None => BLOCKED_DEPTH,
-                                    Some(layer) => {
-                                        let ray = Ray {
-                                            origin: DVec3::new(0.0, 0.0, radius_km + z),
-                                            dir,
-                                            layer,
-                                        };
-                                        match tracking::optical_depth(medium, geometry, &ray) {
-                                            (tau, WalkEnd::Top { .. }) => tau.min(BLOCKED_DEPTH),
-                                            _ => BLOCKED_DEPTH,
-                                        }
+                    .flat_map(|&z| {
+                        (0..MU_NODES).map(move |k| {
+                            let mu = mu_node(k);
+                            let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+                            match tracking::layer_at(&levels, z, mu) {
+                                None if mu >= 0.0 => 0.0,
+                                None => BLOCKED_DEPTH,
+                                Some(layer) => {
+                                    let ray = Ray {
+                                        origin: DVec3::new(0.0, 0.0, radius_km + z),
+                                        dir,
+                                        layer,
+                                    };
+                                    match tracking::optical_depth(medium, geometry, &ray) {
+                                        (tau, WalkEnd::Top { .. }) => tau.min(BLOCKED_DEPTH),
+                                        _ => BLOCKED_DEPTH,
                                     }
                                 }
-                            })
-                            .collect()
+                            }
+                        })
                     })
                     .collect();
                 SunDepth::Spherical {
                     radius_km,
+                    mid_radius_sq: levels
+                        .windows(2)
+                        .map(|w| (radius_km + 0.5 * (w[0] + w[1])).powi(2))
+                        .collect(),
+                    inv_level_radius: levels.iter().map(|&z| 1.0 / (radius_km + z)).collect(),
                     altitudes_km: altitudes,
                     depth,
                 }
@@ -112,47 +129,118 @@ impl SunDepth {
         }
     }
 
-    /// True where the depth is exact (plane-parallel geometry), so that
-    /// sampling may follow it alone.
+    /// True where the depth is exact (plane-parallel geometry, direct beam
+    /// attenuated in the slab), so that sampling may follow it alone.
     pub fn is_exact(&self) -> bool {
-        matches!(self, SunDepth::PlaneParallel { .. })
+        matches!(self, SunDepth::PlaneParallel { exact: true, .. })
     }
 
     /// Approximate optical depth from `x` toward the sun along `sun`.
     pub fn at(&self, x: DVec3, sun: DVec3) -> f64 {
+        let layers = match self {
+            SunDepth::PlaneParallel { levels_km, .. } => levels_km.len() - 1,
+            SunDepth::Spherical { altitudes_km, .. } => altitudes_km.len() / 2,
+        };
+        let z = self.altitude(x);
+        let levels = |i: usize| match self {
+            SunDepth::PlaneParallel { levels_km, .. } => levels_km[i],
+            SunDepth::Spherical { altitudes_km, .. } => altitudes_km[2 * i],
+        };
+        let layer = (0..layers).find(|&i| z < levels(i + 1)).unwrap_or(layers - 1);
+        self.at_in_layer(x, sun, layer)
+    }
+
+    /// [`SunDepth::at`] for a point `x` known to lie in (or on the
+    /// boundary of) `layer`: no search over the altitudes (the sun-aware
+    /// sampling calls this at both ends of every segment of a flight).
+    #[inline]
+    pub fn at_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
         match self {
             SunDepth::PlaneParallel {
                 levels_km,
                 tau_above,
                 mu0,
+                ..
             } => {
                 if *mu0 <= 0.0 {
                     return BLOCKED_DEPTH;
                 }
-                let z = x.z.clamp(levels_km[0], levels_km[levels_km.len() - 1]);
-                let i = levels_km.partition_point(|&l| l <= z).clamp(1, levels_km.len() - 1) - 1;
-                let f = (z - levels_km[i]) / (levels_km[i + 1] - levels_km[i]);
+                let i = layer.min(levels_km.len() - 2);
+                let (z0, z1) = (levels_km[i], levels_km[i + 1]);
+                let f = ((x.z - z0) / (z1 - z0)).clamp(0.0, 1.0);
                 ((tau_above[i] + (tau_above[i + 1] - tau_above[i]) * f) / mu0).min(BLOCKED_DEPTH)
             }
             SunDepth::Spherical {
                 radius_km,
                 altitudes_km,
                 depth,
+                ..
             } => {
                 let r = x.length();
                 let mu = (x.dot(sun) / r).clamp(-1.0, 1.0);
-                let z = (r - radius_km).clamp(altitudes_km[0], altitudes_km[altitudes_km.len() - 1]);
-                let i = altitudes_km
-                    .partition_point(|&a| a <= z)
-                    .clamp(1, altitudes_km.len() - 1)
-                    - 1;
-                let fz = (z - altitudes_km[i]) / (altitudes_km[i + 1] - altitudes_km[i]);
+                let z = r - radius_km;
+                // Altitude nodes 2L (bottom), 2L + 1 (middle), 2L + 2 (top).
+                let bottom = 2 * layer.min(altitudes_km.len() / 2 - 1);
+                let i = if z < altitudes_km[bottom + 1] {
+                    bottom
+                } else {
+                    bottom + 1
+                };
+                let (z0, z1) = (altitudes_km[i], altitudes_km[i + 1]);
+                let fz = ((z - z0) / (z1 - z0)).clamp(0.0, 1.0);
                 let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
                 let k = (m as usize).min(MU_NODES - 2);
                 let fm = m - k as f64;
-                let at = |row: &Vec<f64>| row[k] + (row[k + 1] - row[k]) * fm;
-                at(&depth[i]) + (at(&depth[i + 1]) - at(&depth[i])) * fz
+                let row0 = &depth[i * MU_NODES + k..i * MU_NODES + k + 2];
+                let row1 = &depth[(i + 1) * MU_NODES + k..(i + 1) * MU_NODES + k + 2];
+                let d0 = row0[0] + (row0[1] - row0[0]) * fm;
+                let d1 = row1[0] + (row1[1] - row1[0]) * fm;
+                d0 + (d1 - d0) * fz
             }
+        }
+    }
+
+    /// [`SunDepth::at_in_layer`] for a point `x` on the bottom or top level
+    /// of `layer` (the end of a flight's segment in it; the nearer level is
+    /// taken): the table's row of that level, interpolated in μ only.
+    #[inline]
+    pub fn at_end_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
+        match self {
+            SunDepth::PlaneParallel { levels_km, .. } => {
+                let i = layer.min(levels_km.len() - 2);
+                let level = if 2.0 * x.z < levels_km[i] + levels_km[i + 1] {
+                    i
+                } else {
+                    i + 1
+                };
+                self.at_in_layer(DVec3::new(x.x, x.y, levels_km[level]), sun, i)
+            }
+            SunDepth::Spherical {
+                depth,
+                mid_radius_sq,
+                inv_level_radius,
+                ..
+            } => {
+                let i = layer.min(mid_radius_sq.len() - 1);
+                let level = if x.length_squared() < mid_radius_sq[i] {
+                    i
+                } else {
+                    i + 1
+                };
+                let mu = (x.dot(sun) * inv_level_radius[level]).clamp(-1.0, 1.0);
+                let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
+                let k = (m as usize).min(MU_NODES - 2);
+                let row = &depth[2 * level * MU_NODES + k..2 * level * MU_NODES + k + 2];
+                row[0] + (row[1] - row[0]) * (m - k as f64)
+            }
+        }
+    }
+
+    /// The altitude of `x` in the table's geometry.
+    fn altitude(&self, x: DVec3) -> f64 {
+        match self {
+            SunDepth::PlaneParallel { .. } => x.z,
+            SunDepth::Spherical { radius_km, .. } => x.length() - radius_km,
         }
     }
 }
@@ -173,7 +261,7 @@ mod tests {
         for elev in [60.0f64, 10.0, 1.0] {
             let e = elev.to_radians();
             let sun = DVec3::new(e.cos(), 0.0, e.sin());
-            let table = SunDepth::new(&m, &g, sun);
+            let table = SunDepth::new(&m, &g, sun, false);
             for z in [0.3, 2.7, 13.0, 41.0] {
                 let x = DVec3::new(0.0, 0.0, 6378.0 + z);
                 let layer = tracking::layer_at(m.levels_km(), z, 1.0).unwrap();
@@ -197,5 +285,115 @@ mod tests {
         for k in 0..MU_NODES {
             assert!((mu_index(mu_node(k)) - k as f64).abs() < 1e-9);
         }
+    }
+
+    /// The depth toward the sun, exactly: 0 outside the atmosphere, ∞ into
+    /// the planet.
+    fn exact_depth(m: &Medium, g: &Geometry, x: DVec3, sun: DVec3, radius_km: f64) -> f64 {
+        let z = x.length() - radius_km;
+        match tracking::layer_at(m.levels_km(), z, x.normalize().dot(sun)) {
+            None => 0.0,
+            Some(layer) => match tracking::optical_depth(
+                m,
+                g,
+                &Ray {
+                    origin: x,
+                    dir: sun,
+                    layer,
+                },
+            ) {
+                (tau, WalkEnd::Top { .. }) => tau,
+                _ => f64::INFINITY,
+            },
+        }
+    }
+
+    #[test]
+    fn points_on_levels_read_the_same_from_either_layer() {
+        let text = "[spectrum]\nwavelengths_nm = [620.0]\n";
+        let atm = Job::parse(text, "t", Path::new(".")).unwrap().atmosphere;
+        let m = Medium::new(&atm, 0, MediumModel::Layered, 1.0);
+        let radius = 6378.0;
+        let e = (-2.0f64).to_radians();
+        let sun = DVec3::new(e.cos(), 0.0, e.sin());
+        for (g, table) in [
+            (
+                Geometry::Spherical { radius_km: radius },
+                SunDepth::new(&m, &Geometry::Spherical { radius_km: radius }, sun, false),
+            ),
+            (
+                Geometry::PlaneParallel,
+                SunDepth::new(&m, &Geometry::PlaneParallel, DVec3::new(0.6, 0.0, 0.8), false),
+            ),
+        ] {
+            let sun = if matches!(g, Geometry::PlaneParallel) {
+                DVec3::new(0.6, 0.0, 0.8)
+            } else {
+                sun
+            };
+            let levels = m.levels_km();
+            for (i, &z) in levels.iter().enumerate() {
+                for angle in [-40.0f64, -3.0, 0.0, 1.0, 2.5, 30.0, 120.0] {
+                    let a = angle.to_radians();
+                    let x = match g {
+                        Geometry::Spherical { .. } => (radius + z) * DVec3::new(a.sin(), 0.0, a.cos()),
+                        Geometry::PlaneParallel => DVec3::new(angle, 0.0, z),
+                    };
+                    let general = table.at_in_layer(x, sun, i.min(levels.len() - 2));
+                    for layer in [i.saturating_sub(1), i.min(levels.len() - 2)] {
+                        let end = table.at_end_in_layer(x, sun, layer);
+                        assert!(
+                            (end - general).abs() <= 1e-9 * (1.0 + general),
+                            "level {i} angle {angle}: {end} vs {general}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The cause of the twilight bias of sun-aware connections: near the
+    /// edge of the Earth's shadow the table interpolates between a node
+    /// whose ray to the sun is blocked (depth 60) and a sunlit one, and
+    /// overstates the depth of sunlit points by tens. A density following
+    /// the table alone then draws those points e^(tens) times too rarely;
+    /// hence the defensive mixture in spherical geometry (`is_exact`).
+    #[test]
+    fn the_table_overstates_the_depth_just_outside_the_shadow() {
+        let text = "[spectrum]\nwavelengths_nm = [620.0]\n";
+        let atm = Job::parse(text, "t", Path::new(".")).unwrap().atmosphere;
+        let m = Medium::new(&atm, 0, MediumModel::Layered, 1.0);
+        let radius = 6378.0;
+        let g = Geometry::Spherical { radius_km: radius };
+        let e = (-2.0f64).to_radians();
+        let sun = DVec3::new(e.cos(), 0.0, e.sin());
+        let table = SunDepth::new(&m, &g, sun, false);
+        assert!(!table.is_exact());
+        let (mut worst, mut at) = (0.0f64, (0.0, 0.0, 0.0, 0.0));
+        for iz in 0..200 {
+            let z = 0.25 + 0.5 * iz as f64;
+            // Points around the terminator: solar zenith 80°–100°.
+            for ia in 0..2000 {
+                // The sun is 92° from +z: a point at polar angle 92° − ζ
+                // in its plane sees it at solar zenith ζ.
+                let a = (92.0 - (80.0 + 0.01 * ia as f64)).to_radians();
+                let x = (radius + z) * DVec3::new(a.sin(), 0.0, a.cos());
+                let exact = exact_depth(&m, &g, x, sun, radius);
+                if exact.is_finite() && exact < 10.0 {
+                    let over = table.at(x, sun) - exact;
+                    if over > worst {
+                        (worst, at) = (over, (z, 80.0 + 0.01 * ia as f64, table.at(x, sun), exact));
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "largest overstatement of a sunlit point's depth: {worst:.1} at z {:.2} km, solar zenith {:.2}° (table {:.2}, exact {:.3})",
+            at.0, at.1, at.2, at.3
+        );
+        assert!(
+            worst > 10.0,
+            "the table is now close to exact at the shadow's edge ({worst}): revisit SUN_AWARE_SHARE"
+        );
     }
 }

@@ -366,8 +366,14 @@ impl Job {
         let settings = self.render.settings;
         let plane_parallel = self.plane_parallel_transport();
         let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg, plane_parallel);
-        let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant())
-            .then(|| SunDepth::new(&medium, &self.geometry(), task.sun.direction));
+        let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant()).then(|| {
+            SunDepth::new(
+                &medium,
+                &self.geometry(),
+                task.sun.direction,
+                self.pseudo_spherical_radius_km().is_some(),
+            )
+        });
         Scene {
             geometry: self.geometry(),
             medium,
