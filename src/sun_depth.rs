@@ -97,7 +97,7 @@ impl SunDepth {
                         (0..MU_NODES).map(move |k| {
                             let mu = mu_node(k);
                             let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-                            match tracking::layer_at(&levels, z, mu) {
+                            match tracking::layer_at(levels, z, mu) {
                                 None if mu >= 0.0 => 0.0,
                                 None => BLOCKED_DEPTH,
                                 Some(layer) => {
