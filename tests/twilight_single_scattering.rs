@@ -3,7 +3,9 @@
 //! connections (at the collision, and sun-aware along the whole flight)
 //! against the same integral done by quadrature along the line of sight,
 //! I = ∫ e^(−τ(t)) σ_R(t) P11(Θ)/(4π) T_sun(x(t)) dt (E0 = 1; the sun's
-//! transmittance T_sun is 0 where its ray meets the planet).
+//! transmittance T_sun is 0 where its ray meets the planet). Sun at −2°,
+//! −4°, −4.2° and +2°, with and without ozone, seen from the ground and
+//! from 10 km (looking up, past the limb and down to the black ground).
 //!
 //! The sun-aware density followed a tabulated depth toward the sun that is
 //! far too large near the shadow's edge; its weights there reached e^60,
@@ -18,7 +20,17 @@ use atmosim::render::Direction;
 use atmosim::tracking::{self, Ray, WalkEnd};
 use common::{Comparison, directions, job, render};
 
-const DIRECTIONS: [(f64, f64); 4] = [(88.0, 0.0), (80.0, 0.0), (60.0, 180.0), (30.0, 90.0)];
+/// Directions seen from the ground, and from 10 km (also looking down, to
+/// lines of sight that end on the black ground).
+const GROUND: [(f64, f64); 4] = [(88.0, 0.0), (80.0, 0.0), (60.0, 180.0), (30.0, 90.0)];
+const AT_10_KM: [(f64, f64); 6] = [
+    (80.0, 0.0),
+    (88.0, 180.0),
+    (92.0, 0.0),
+    (95.0, 90.0),
+    (100.0, 180.0),
+    (120.0, 0.0),
+];
 
 fn twilight_job(ozone: &str, elevation_deg: f64, sun_sampling: &str) -> Job {
     job(&format!(
@@ -29,14 +41,14 @@ fn twilight_job(ozone: &str, elevation_deg: f64, sun_sampling: &str) -> Job {
     ))
 }
 
-/// The single-scattering radiance from the ground along `d`, by midpoint
+/// The single-scattering radiance at `altitude_km` along `d`, by midpoint
 /// quadrature (4000 points per layer segment: converged to ~1e-6).
-fn quadrature(job: &Job, d: &Direction) -> f64 {
+fn quadrature(job: &Job, altitude_km: f64, d: &Direction) -> f64 {
     let scene = job.scene(0);
     let (medium, geometry, sun) = (&scene.medium, &scene.geometry, scene.sun.direction);
     let v = d.vector();
-    let origin = scene.observer_position(0.0);
-    let layer = tracking::layer_at(medium.levels_km(), 0.0, v.dot(geometry.up(origin))).unwrap();
+    let origin = scene.observer_position(altitude_km);
+    let layer = tracking::layer_at(medium.levels_km(), altitude_km, v.dot(geometry.up(origin))).unwrap();
     let mut segments = Vec::new();
     tracking::segments_of(medium, geometry, &Ray { origin, dir: v, layer }, &mut segments);
     let (mut total, mut tau0) = (0.0, 0.0);
@@ -78,26 +90,28 @@ fn quadrature(job: &Job, d: &Direction) -> f64 {
 
 #[test]
 fn both_sun_connections_give_the_single_scattering_integral_below_the_horizon() {
-    let dirs = directions(&DIRECTIONS);
     let mut cmp = Comparison::default();
-    for ozone in ["none", "bogumil"] {
-        for elevation in [-2.0, -4.2, 2.0] {
-            let reference: Vec<f64> = dirs
-                .iter()
-                .map(|d| quadrature(&twilight_job(ozone, elevation, "collision"), d))
-                .collect();
-            for sampling in ["sun_aware", "collision"] {
-                let j = twilight_job(ozone, elevation, sampling);
-                let tallies = render(&j, 0.0, &dirs, 20_000);
-                for ((d, t), r) in dirs.iter().zip(&tallies).zip(&reference) {
-                    // The quadrature's own error: ~1e-6 relative.
-                    cmp.add(
-                        || format!("ozone {ozone}, sun {elevation}°, {sampling}, {d:?}"),
-                        t.mean()[0],
-                        t.standard_error()[0],
-                        *r,
-                        1e-5 * r,
-                    );
+    for (zout, pairs) in [(0.0, &GROUND[..]), (10.0, &AT_10_KM[..])] {
+        let dirs = directions(pairs);
+        for ozone in ["none", "bogumil"] {
+            for elevation in [-2.0, -4.0, -4.2, 2.0] {
+                let reference: Vec<f64> = dirs
+                    .iter()
+                    .map(|d| quadrature(&twilight_job(ozone, elevation, "collision"), zout, d))
+                    .collect();
+                for sampling in ["sun_aware", "collision"] {
+                    let j = twilight_job(ozone, elevation, sampling);
+                    let tallies = render(&j, zout, &dirs, 20_000);
+                    for ((d, t), r) in dirs.iter().zip(&tallies).zip(&reference) {
+                        // The quadrature's own error: ~1e-6 relative.
+                        cmp.add(
+                            || format!("zout {zout}, ozone {ozone}, sun {elevation}°, {sampling}, {d:?}"),
+                            t.mean()[0],
+                            t.standard_error()[0],
+                            *r,
+                            1e-5 * r,
+                        );
+                    }
                 }
             }
         }

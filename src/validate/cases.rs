@@ -77,6 +77,7 @@ pub(super) fn push(
     let (m, se) = (t.mean(), t.standard_error());
     for (i, &k) in components.iter().enumerate() {
         values.push(Value {
+            group: label.to_string(),
             label: format!(
                 "{label} θ {:.4} φ {:.1} {}",
                 d.view_zenith_deg,
@@ -399,6 +400,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "half the last printed digit, 0.5e-8/π (absolute): the tables are exact to 8 decimals",
             default_samples: 100_000,
             informational: false,
+            ratio_limit: None,
             run: natraj,
         },
         Case {
@@ -409,6 +411,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_a(IPRT_A1_000, 0.5, 0.0, 0.0, 3, n),
         },
         Case {
@@ -419,6 +422,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_a(IPRT_A1_003, 0.5, 0.03, 0.0, 3, n),
         },
         Case {
@@ -429,6 +433,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_a(IPRT_A1_010, 0.5, 0.1, 0.0, 3, n),
         },
         Case {
@@ -439,6 +444,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_a(IPRT_A2, 0.1, 0.03, 0.3, 1, n),
         },
         Case {
@@ -449,6 +455,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_b(false, 0.03, n),
         },
         Case {
@@ -460,6 +467,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| iprt_b(true, 0.03, n),
         },
         Case {
@@ -470,6 +478,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "5e-7 × I: 7 significant digits",
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: kokhanovsky,
         },
         Case {
@@ -480,6 +489,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "5e-6 × I (the single-scattering values are reproduced to 5e-6 independently, validation/README.md)",
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| korkin("collision", n),
         },
         Case {
@@ -490,6 +500,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "5e-6 × I (as korkin_collision)",
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| korkin("sun_aware", n),
         },
         Case {
@@ -502,6 +513,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: MYSTIC_FLOOR,
             default_samples: 40_000,
             informational: false,
+            ratio_limit: Some(0.003),
             run: mystic_twilight,
         },
         Case {
@@ -513,6 +525,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "2e-6 × I: 64 and 128 streams agree to 2e-6 (file header)",
             default_samples: 200_000,
             informational: false,
+            ratio_limit: None,
             run: disort3,
         },
         Case {
@@ -523,6 +536,7 @@ pub(super) fn published() -> Vec<Case> {
             floor: "5e-6 × I: 32 and 128 streams agree to 5e-6 (file header)",
             default_samples: 20_000,
             informational: false,
+            ratio_limit: None,
             run: pydisort,
         },
     ]

@@ -150,6 +150,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: POLRAD_FLOOR_NOTE,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| compare("A_polrad.inp", 0.0, 2.0, POLRAD_FLOOR, false, n),
         },
         Case {
@@ -160,6 +161,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: DISORT_FLOOR_NOTE,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| compare("A_disort_pp.inp", 0.0, 0.0, DISORT_FLOOR, false, n),
         },
         Case {
@@ -171,6 +173,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: DISORT_FLOOR_NOTE,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| compare("A_disort_ps.inp", 0.0, 1.0, DISORT_FLOOR, false, n),
         },
         Case {
@@ -182,6 +185,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: DISORT_FLOOR_NOTE,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| compare("H_disort_pp.inp", 2.0, 0.0, DISORT_FLOOR, false, n),
         },
         Case {
@@ -192,6 +196,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: DISORT_FLOOR_NOTE,
             default_samples: 10_000,
             informational: false,
+            ratio_limit: None,
             run: |n| compare("H_disort_ps.inp", 2.0, 1.0, DISORT_FLOOR, false, n),
         },
         Case {
@@ -202,6 +207,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: MIE_NOTE,
             default_samples: 10_000,
             informational: true,
+            ratio_limit: None,
             run: |n| compare("B_disort_pp.inp", 1.0, 0.0, DISORT_FLOOR, true, n),
         },
         Case {
@@ -212,6 +218,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: MIE_NOTE,
             default_samples: 10_000,
             informational: true,
+            ratio_limit: None,
             run: |n| compare("B_disort_ps.inp", 1.0, 1.0, DISORT_FLOOR, true, n),
         },
         Case {
@@ -222,6 +229,7 @@ pub(super) fn cases() -> Vec<Case> {
             floor: MIE_NOTE,
             default_samples: 10_000,
             informational: true,
+            ratio_limit: None,
             run: |n| compare("B_polrad.inp", 1.0, 2.0, POLRAD_FLOOR, true, n),
         },
     ]

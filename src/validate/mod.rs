@@ -21,7 +21,7 @@ pub mod plot;
 pub mod stats;
 
 pub use cases::iprt_b;
-pub use stats::{Statistics, Value, statistics};
+pub use stats::{GroupRatio, Statistics, Value, statistics};
 
 /// The verdict of a case.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,6 +58,10 @@ pub struct Case {
     pub default_samples: u64,
     /// Reported without a verdict.
     pub informational: bool,
+    /// When set, the case also fails if a group's inverse-variance mean
+    /// ratio ([`GroupRatio`]) is farther than this from 1: a bias shared by
+    /// a group's directions, each within its own noise.
+    pub ratio_limit: Option<f64>,
     run: fn(u64) -> Result<Vec<Value>>,
 }
 
@@ -91,9 +95,12 @@ pub fn run(case: &Case, samples: Option<u64>) -> Result<CaseResult> {
     let start = std::time::Instant::now();
     let values = (case.run)(samples)?;
     let stats = statistics(&values);
+    let ratios_pass = case
+        .ratio_limit
+        .is_none_or(|limit| stats.group_ratios.iter().all(|g| (g.ratio - 1.0).abs() <= limit));
     let verdict = if case.informational {
         Verdict::Informational
-    } else if stats.passes() {
+    } else if stats.passes() && ratios_pass {
         Verdict::Pass
     } else {
         Verdict::Fail
@@ -132,13 +139,24 @@ pub fn report_row(r: &CaseResult) -> String {
 /// Header of the summary table.
 pub const TABLE_HEADER: &str = "| case | paths/dir | values | mean ratio | median ratio | mean abs rel diff | median abs rel diff | max abs rel diff | correlation | max abs z | Šidák threshold | abs z < 1 | verdict |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
+/// The groups' inverse-variance mean ratios, and the case's limit on them.
+fn group_ratio_line(r: &CaseResult) -> String {
+    let groups: Vec<String> = r.stats.group_ratios.iter().map(GroupRatio::describe).collect();
+    let limit = match r.case.ratio_limit {
+        Some(l) => format!(" (limit 1 ± {l})"),
+        None => String::new(),
+    };
+    format!("inverse-variance mean ratio{limit}: {}", groups.join("; "))
+}
+
 /// The text printed per case on the terminal.
 pub fn summary(r: &CaseResult) -> String {
     let s = &r.stats;
     format!(
         "{name}: {verdict} ({secs:.1} s, {samples} paths per direction)\n  {values} values ({intens} intensities): \
          mean ratio {mr:.5}, median ratio {mdr:.5}; |rel diff| mean {ma:.2e}, median {md:.2e}, max {mx:.2e}; \
-         correlation {c:.6}\n  max |z| {z:.2} (Šidák threshold {t:.2}), {w:.0} % within 1σ; worst: {worst}",
+         correlation {c:.6}\n  {groups}\n  max |z| {z:.2} (Šidák threshold {t:.2}), {w:.0} % within 1σ; worst: {worst}",
+        groups = group_ratio_line(r),
         name = r.case.name,
         verdict = r.verdict.label(),
         secs = r.seconds,
@@ -178,12 +196,13 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
     for r in results {
         let c = &r.case;
         s.push_str(&format!(
-            "\n## {} — {}\n\n- Reference: {}\n- atmosim: {}\n- Accuracy floor: {}\n- Worst value: {}\n- Time: {:.1} s\n\n![{}]({}.png)\n",
+            "\n## {} — {}\n\n- Reference: {}\n- atmosim: {}\n- Accuracy floor: {}\n- Per group, {}\n- Worst value: {}\n- Time: {:.1} s\n\n![{}]({}.png)\n",
             c.name,
             c.title,
             c.reference,
             c.setup,
             c.floor,
+            group_ratio_line(r),
             r.stats.worst,
             r.seconds,
             c.name,

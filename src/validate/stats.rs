@@ -14,6 +14,9 @@ pub const ALPHA: f64 = 0.01;
 pub struct Value {
     /// What it is, for the report (level, direction, component).
     pub label: String,
+    /// The set of values it belongs to (an output level, a sun angle):
+    /// inverse-variance mean ratios are taken per group.
+    pub group: String,
     pub view_zenith_deg: f64,
     pub azimuth_deg: f64,
     /// Stokes component: 0 = I, 1 = Q, 2 = U, 3 = V.
@@ -82,6 +85,72 @@ pub struct Statistics {
     pub threshold: f64,
     /// Fraction of |z| < 1 (≈ 0.68 when the errors are honest).
     pub within_one_sigma: f64,
+    /// Per group, the inverse-variance mean ratio of the intensities.
+    pub group_ratios: Vec<GroupRatio>,
+}
+
+/// The inverse-variance weighted mean of atmosim/reference over the
+/// intensities of one group: a bias common to a group's directions shows
+/// here long before any single value's z does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupRatio {
+    pub group: String,
+    pub intensities: usize,
+    /// Σ (r_i/σ_i²) / Σ (1/σ_i²), r_i = atmosim/reference, σ_i = the
+    /// combined standard error over the reference.
+    pub ratio: f64,
+    /// 1/√Σ (1/σ_i²).
+    pub se: f64,
+}
+
+/// [`GroupRatio`] per group of the intensities in the statistics, in order
+/// of first appearance (values without noise are left out).
+pub fn group_ratios(values: &[Value]) -> Vec<GroupRatio> {
+    let mut out: Vec<(GroupRatio, f64, f64)> = Vec::new();
+    for v in values
+        .iter()
+        .filter(|v| v.in_stats && v.component == 0 && v.reference != 0.0)
+    {
+        let sigma = v.combined_se() / v.reference.abs();
+        if !(sigma > 0.0 && sigma.is_finite()) {
+            continue;
+        }
+        let w = 1.0 / (sigma * sigma);
+        let i = match out.iter().position(|(g, ..)| g.group == v.group) {
+            Some(i) => i,
+            None => {
+                let g = GroupRatio {
+                    group: v.group.clone(),
+                    intensities: 0,
+                    ratio: f64::NAN,
+                    se: f64::NAN,
+                };
+                out.push((g, 0.0, 0.0));
+                out.len() - 1
+            }
+        };
+        let (g, sum_w, sum_wr) = &mut out[i];
+        g.intensities += 1;
+        *sum_w += w;
+        *sum_wr += w * v.ratio();
+    }
+    out.into_iter()
+        .map(|(g, sum_w, sum_wr)| GroupRatio {
+            ratio: sum_wr / sum_w,
+            se: 1.0 / sum_w.sqrt(),
+            ..g
+        })
+        .collect()
+}
+
+impl GroupRatio {
+    /// "zout 0: 0.99912 ± 0.00061 (38 I)".
+    pub fn describe(&self) -> String {
+        format!(
+            "{}: {:.5} ± {:.5} ({} I)",
+            self.group, self.ratio, self.se, self.intensities
+        )
+    }
 }
 
 /// Mean of a slice (NaN when empty).
@@ -168,6 +237,7 @@ pub fn statistics(values: &[Value]) -> Statistics {
         worst,
         threshold: sidak_threshold(used.len(), ALPHA),
         within_one_sigma: used.iter().filter(|v| v.z().abs() < 1.0).count() as f64 / used.len().max(1) as f64,
+        group_ratios: group_ratios(values),
     }
 }
 
@@ -185,6 +255,7 @@ mod tests {
     fn value(atmosim: f64, se: f64, reference: f64, component: usize) -> Value {
         Value {
             label: String::new(),
+            group: String::new(),
             view_zenith_deg: 0.0,
             azimuth_deg: 0.0,
             component,
@@ -254,5 +325,25 @@ mod tests {
         assert_eq!(s.values, 1);
         assert_eq!(s.max_abs_z, 0.0);
         assert!(s.passes());
+    }
+
+    #[test]
+    fn group_ratios_by_hand() {
+        // Group a: ratios 1.1 (σ 0.1) and 0.95 (σ 0.05): weights 100, 400;
+        // mean (110 + 380)/500 = 0.98, se 1/√500. Group b: one value.
+        let mut values = vec![
+            value(1.1, 0.1, 1.0, 0),
+            value(1.9, 0.1, 2.0, 0),
+            value(3.0, 0.3, 3.0, 0),
+        ];
+        values[0].group = "a".into();
+        values[1].group = "a".into();
+        values[2].group = "b".into();
+        let g = group_ratios(&values);
+        assert_eq!(g.len(), 2);
+        assert_eq!((g[0].group.as_str(), g[0].intensities), ("a", 2));
+        assert!((g[0].ratio - 0.98).abs() < 1e-12, "{}", g[0].ratio);
+        assert!((g[0].se - 1.0 / 500f64.sqrt()).abs() < 1e-12);
+        assert!((g[1].ratio - 1.0).abs() < 1e-15 && (g[1].se - 0.1).abs() < 1e-15);
     }
 }
