@@ -716,7 +716,7 @@ impl FlightPart {
 /// 0.8–1.3× of α = 0.9, whose heavier tail read 2.4 % low (3.2σ) at 20,000
 /// paths at −4.2° where α = 0.8 stays within 2.4σ
 /// (`tests/twilight_single_scattering.rs`).
-const SUN_AWARE_SHARE: f64 = 0.8;
+pub(crate) const SUN_AWARE_SHARE: f64 = 0.8;
 
 /// The state of one path.
 #[derive(Clone)]

@@ -49,8 +49,14 @@
 //! vector (the atmosphere's extinction terms, or the channels' own σ_t
 //! profiles for monochromatic channels when there are fewer channels than
 //! terms) and combined per channel: τ_λ = Σ_b W_λb·τ_b. Requires
-//! piecewise-constant media (the `layered` model) and forced collisions;
-//! sun connections are made at the collision points.
+//! piecewise-constant media (the `layered` model) and forced collisions.
+//!
+//! Sun connections are made at the collision points, or with sun-aware
+//! connections (`with_sun_aware`) at one point per flight drawn from the
+//! mixture over the channels of their sun-following densities
+//! ([`SpectralScene::sun_along_flight`]): the point's density is the same
+//! for every channel, so the spectral MIS weight of the path so far
+//! applies to it unchanged.
 
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
@@ -60,10 +66,11 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use crate::integrator::{
-    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, Settings, cosine_hemisphere, phase_mixture, pick_component, quarter_turn,
-    reference_albedo, reflects, scattering_frame,
+    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, Settings, cosine_hemisphere, phase_mixture,
+    pick_component, quarter_turn, reference_albedo, reflects, scattering_frame,
 };
 use crate::medium::{MediumModel, PointCoefficients, density_steps};
+use crate::phase::PhaseFunction;
 use crate::phase::PhaseMixture;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
@@ -71,6 +78,7 @@ use crate::solar::SolarSpectrum;
 use crate::spectral_terms::{Response, SpectralTerms};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sun::Sun;
+use crate::sun_depth::SunDepth;
 use crate::tracking::{self, Ray, Segment, ShellExit, WalkEnd};
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
@@ -101,6 +109,9 @@ struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
     source: Vec<f64>,
+    /// Each layer's coefficients per channel (`[layer·channels + channel]`),
+    /// with sun-aware connections only.
+    layers: Vec<PointCoefficients>,
 }
 
 /// The basis optical depths are computed on.
@@ -135,6 +146,10 @@ pub struct SpectralScene {
     /// The extraterrestrial irradiance radiances are weighted by (absolute
     /// units); `None`: per unit E0.
     source: Option<Arc<SolarSpectrum>>,
+    /// Sun-aware connections along every flight: the approximate depth
+    /// toward the sun of each basis vector (a channel's is their sum
+    /// weighted as its extinction); `None`: connections at collisions.
+    sun_depth: Option<SunDepth>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -169,20 +184,62 @@ struct Path {
     /// `[λ·albedos + albedo]`.
     radiance: Vec<Stokes>,
     albedos: usize,
-    /// Scratch per wavelength: optical depths to the exit and to the
-    /// collision, forcing probabilities, phase mixtures and matrices at
-    /// the last collision.
-    tau_exit: Vec<f64>,
+    /// The depths along the current flight, and along the last shadow ray
+    /// toward the sun (kept apart: sun-aware connections walk shadow rays
+    /// before the flight's collision is drawn).
+    ray: Depths,
+    shadow: Depths,
+    /// Scratch per wavelength: optical depths to the collision, forcing
+    /// probabilities, phase mixtures and matrices at the last collision.
     tau_hit: Vec<f64>,
     forced: Vec<f64>,
     mixtures: Vec<PhaseMixture>,
     matrices: Vec<PhaseMatrix>,
-    /// Scratch per basis vector: optical depths.
+    /// Sun-aware connections along a flight: its segments, and per
+    /// segment and channel what the density needs ([`FlightTerms`]).
+    segments: Vec<Segment>,
+    terms: Vec<FlightTerms>,
+    /// Per channel scoring the point: e^(−τ)/q there.
+    point_weights: Vec<f64>,
+}
+
+/// Optical depths along one ray to where it leaves.
+#[derive(Default, Clone)]
+struct Depths {
+    /// Per basis vector (also scratch while a flight is located).
     tau_basis: Vec<f64>,
-    /// Scratch per level: the half chords of the last ray through
-    /// concentric shells, and how that ray crosses them.
+    /// Per channel.
+    tau: Vec<f64>,
+    /// Per level: the ray's half chords through concentric shells, and
+    /// how it crosses them (spherical geometry).
     chords: Vec<f64>,
     exit: Option<ShellExit>,
+}
+
+impl Depths {
+    fn reset(&mut self, n: usize, levels: usize, basis: usize) {
+        self.tau.resize(n, 0.0);
+        self.tau_basis.resize(basis, 0.0);
+        self.chords.resize(levels, 0.0);
+    }
+}
+
+/// One segment of a flight for one channel, as the sun-aware density
+/// sees it (see [`SpectralScene::sun_along_flight`]).
+#[derive(Default, Clone, Copy)]
+struct FlightTerms {
+    /// Optical depth along the flight at the segment's start, and over it.
+    tau0: f64,
+    tau_seg: f64,
+    /// Approximate depth toward the sun at the segment's ends.
+    sun0: f64,
+    sun1: f64,
+    /// σ_s·P11 at the sun's centre.
+    c: f64,
+    /// ∫ of the unnormalised sun-following and flight densities over the
+    /// segment.
+    sun_integral: f64,
+    flight_integral: f64,
 }
 
 /// A thread's reusable state: the path, the spare the path's first vertex
@@ -212,11 +269,11 @@ impl Path {
         self.radiance.clear();
         self.radiance.resize(n * albedos, Stokes::zero());
         self.albedos = albedos;
-        for v in [&mut self.tau_exit, &mut self.tau_hit, &mut self.forced] {
+        for v in [&mut self.tau_hit, &mut self.forced] {
             v.resize(n, 0.0);
         }
-        self.tau_basis.resize(basis, 0.0);
-        self.chords.resize(levels, 0.0);
+        self.ray.reset(n, levels, basis);
+        self.shadow.reset(n, levels, basis);
     }
 
     /// Halves every wavelength's throughput (one of two branches).
@@ -333,12 +390,14 @@ impl SpectralScene {
             basis_steps,
             fixed: None,
             source: None,
+            sun_depth: None,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
                 responses: centre,
                 weights: vec![0.0; n * b],
                 source: Vec::new(),
+                layers: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
             scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
@@ -358,6 +417,44 @@ impl SpectralScene {
             self.fixed = Some(fixed);
         }
         self
+    }
+
+    /// The scene with sun-aware connections: at every flight, one point
+    /// drawn along it from a density that follows the sunlit single
+    /// scattering of the channels ([`SpectralScene::sun_along_flight`])
+    /// instead of the connection at the collision.
+    pub fn with_sun_aware(mut self) -> SpectralScene {
+        let b = self.basis_len;
+        let layers = self.levels_km.len() - 1;
+        let sigmas: Vec<Vec<f64>> = (0..b)
+            .map(|j| (0..layers).map(|l| self.basis_sigma[l * b + j]).collect())
+            .collect();
+        self.sun_depth = Some(SunDepth::of_profiles(
+            &self.levels_km,
+            &sigmas,
+            &self.geometry,
+            self.sun.direction,
+            false,
+        ));
+        if let Some(mut fixed) = self.fixed.take() {
+            self.refresh_layers(&mut fixed);
+            self.fixed = Some(fixed);
+        }
+        self
+    }
+
+    /// Fills the spectra's coefficients per layer and channel (read by
+    /// sun-aware connections at every segment of a flight).
+    fn refresh_layers(&self, spectra: &mut ChannelSpectra) {
+        let n = self.channels.len();
+        let layers = self.levels_km.len() - 1;
+        spectra.layers.clear();
+        for l in 0..layers {
+            for w in 0..n {
+                let c = self.coefficients(spectra, l, w);
+                spectra.layers.push(c);
+            }
+        }
     }
 
     /// Fills the spectra's source factors for the channels' wavelengths
@@ -406,6 +503,9 @@ impl SpectralScene {
         }
         self.refresh_weights(spectra);
         self.refresh_source(spectra, lambda);
+        if self.sun_depth.is_some() {
+            self.refresh_layers(spectra);
+        }
     }
 
     /// The direct solar irradiance on a horizontal plane at the observer
@@ -594,14 +694,17 @@ impl SpectralScene {
             spare = None;
         }
         loop {
-            let Some(end) = self.exit_depths(path, spectra, &ray) else {
+            let Some(end) = self.exit_depths(&mut path.ray, spectra, &ray) else {
                 return;
             };
+            // Sun-aware connection along the whole flight, with the
+            // throughput and densities before its collision.
+            let sun_done = !self.order_done(path.order) && self.sun_along_flight(path, spectra, &ray, sampler);
             let to_ground = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
             let split = to_ground && path.order == 0 && spare.is_some();
             if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
                 branch.clone_from(path);
-                for (m, tau) in branch.throughput.iter_mut().zip(&path.tau_exit) {
+                for (m, tau) in branch.throughput.iter_mut().zip(&path.ray.tau) {
                     *m = *m * (-tau).exp();
                 }
                 self.trace_on_from_ground(branch, spectra, ray.origin + t * ray.dir, sampler);
@@ -625,7 +728,9 @@ impl SpectralScene {
                     let x = ray.origin + t * ray.dir;
                     let k_out = -ray.dir;
                     path.order += 1;
-                    self.sun_from_scattering(path, spectra, x, layer, k_out, sampler);
+                    if !sun_done {
+                        self.sun_from_scattering(path, spectra, x, layer, k_out, sampler);
+                    }
                     if self.order_done(path.order) {
                         return;
                     }
@@ -710,18 +815,18 @@ impl SpectralScene {
     }
 
     /// Every channel's optical depth from the ray's origin to where it
-    /// leaves (top or ground) into `path.tau_exit`, and how it leaves;
-    /// `None` for an endless (horizontal plane-parallel) ray.
-    fn exit_depths(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray) -> Option<WalkEnd> {
+    /// leaves (top or ground) into `d.tau`, and how it leaves; `None` for
+    /// an endless (horizontal plane-parallel) ray.
+    fn exit_depths(&self, d: &mut Depths, spectra: &ChannelSpectra, ray: &Ray) -> Option<WalkEnd> {
         let levels = &self.levels_km;
         let b = self.basis_len;
-        let tau = &mut path.tau_basis;
+        let tau = &mut d.tau_basis;
         tau.fill(0.0);
         let end = match self.geometry {
             Geometry::Spherical { radius_km } => {
                 let exit = tracking::shell_exit(radius_km, levels, ray);
                 let range = exit.levels();
-                let c = &mut path.chords[..range.len()];
+                let c = &mut d.chords[..range.len()];
                 tracking::half_chords_into(radius_km, &levels[range], exit.h, c);
                 let base = &self.basis_sigma[ray.layer * b..(ray.layer + 1) * b];
                 let stride = levels.len();
@@ -729,11 +834,11 @@ impl SpectralScene {
                     *t = exit.depth(*s, &self.basis_steps[j * stride..(j + 1) * stride], c);
                 }
                 let end = exit.end(radius_km, levels, ray);
-                path.exit = Some(exit);
+                d.exit = Some(exit);
                 Some(end)
             }
             Geometry::PlaneParallel => {
-                path.exit = None;
+                d.exit = None;
                 let mut endless = false;
                 let end = tracking::walk(&self.geometry, levels, ray, |seg| {
                     if seg.t1.is_finite() {
@@ -746,13 +851,13 @@ impl SpectralScene {
                 (!endless).then_some(end)
             }
         };
-        Self::combine(spectra, &path.tau_basis, &mut path.tau_exit);
+        Self::combine(spectra, &d.tau_basis, &mut d.tau);
         end
     }
 
     /// Samples the flight's outcome with the path's hero wavelength; every
     /// wavelength's integrand and density go in over the hero's density.
-    /// `path.tau_exit` holds the depths to the flight's `end`. At a
+    /// `path.ray` holds the depths to the flight's `end`. At a
     /// collision, `path.mixtures` gets every channel's phase mixture there.
     fn flight(
         &self,
@@ -768,11 +873,11 @@ impl SpectralScene {
         let u = sampler.next_f64();
         let target = if analog {
             let tau = -(1.0 - u).ln();
-            if tau >= path.tau_exit[hero] {
+            if tau >= path.ray.tau[hero] {
                 // The ground, reached with probability e^(−τ) at every λ.
-                let hero_p = (-path.tau_exit[hero]).exp();
+                let hero_p = (-path.ray.tau[hero]).exp();
                 for w in 0..n {
-                    let k = (-path.tau_exit[w]).exp() / hero_p;
+                    let k = (-path.ray.tau[w]).exp() / hero_p;
                     path.throughput[w] = path.throughput[w] * k;
                     path.scale_density(w, k);
                 }
@@ -785,7 +890,7 @@ impl SpectralScene {
             tau
         } else {
             // Forcing probabilities 1 − e^(−τ).
-            for (p, t) in path.forced.iter_mut().zip(&path.tau_exit) {
+            for (p, t) in path.forced.iter_mut().zip(&path.ray.tau) {
                 *p = -(-t).exp_m1();
             }
             if path.forced[hero] <= 0.0 {
@@ -798,7 +903,7 @@ impl SpectralScene {
         let mut acc = 0.0;
         let mut hit = None;
         let mut last = None;
-        let tau = &mut path.tau_basis;
+        let tau = &mut path.ray.tau_basis;
         tau.fill(0.0);
         let visit = |s: Segment| {
             let sigma = self.sigma_t(spectra, s.layer, hero);
@@ -816,9 +921,9 @@ impl SpectralScene {
         };
         // The segments from the half chords `exit_depths` left (no square
         // roots), or walked in a slab.
-        match &path.exit {
+        match &path.ray.exit {
             Some(exit) => {
-                let _ = exit.try_for_each_segment(&path.chords, visit);
+                let _ = exit.try_for_each_segment(&path.ray.chords, visit);
             }
             None => {
                 tracking::walk(&self.geometry, &self.levels_km, ray, visit);
@@ -827,7 +932,7 @@ impl SpectralScene {
         let Some((t, layer)) = hit.or(last) else {
             return Outcome::Escaped;
         };
-        Self::combine(spectra, &path.tau_basis, &mut path.tau_hit);
+        Self::combine(spectra, &path.ray.tau_basis, &mut path.tau_hit);
         // The collision's density per wavelength (σ_t·e^(−τ), over the
         // forcing probability for a forced flight), over the hero's.
         let density = |sigma_t: f64, transmittance: f64, forced: f64| {
@@ -859,10 +964,221 @@ impl SpectralScene {
         Outcome::Collided { t, layer }
     }
 
+    /// Next-event estimation along a whole flight (`path.ray` holds its
+    /// depths), every channel from one point: the point is drawn from the
+    /// mixture over the channels q = (1/N)·Σ_j q_j, each q_j itself the
+    /// defensive mixture of the single-wavelength tracer, α·q_sun,j +
+    /// (1 − α)·q_flight,j with q_sun,j ∝ σ_s·P11·e^(−τ_j)·e^(−τ̃_sun,j) and
+    /// q_flight,j ∝ σ_s·P11·e^(−τ_j), piecewise exponential over the
+    /// flight's segments (α = 1 where τ̃_sun is exact, plane-parallel).
+    /// Channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased
+    /// for its single-scattering integral along the flight, whatever the
+    /// hero, and at most N/(1 − α) times the weight of sampling its own
+    /// flight. The point density is the same for every channel, so the
+    /// path's spectral MIS weight (over the densities of the vertices
+    /// before) applies unchanged. Returns false (nothing done) without
+    /// sun-aware connections or for an endless flight.
+    fn sun_along_flight(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray, sampler: &mut Sampler) -> bool {
+        let Some(depth) = &self.sun_depth else {
+            return false;
+        };
+        let n = self.channels.len();
+        let b = self.basis_len;
+        // The flight's segments.
+        path.segments.clear();
+        let segments = &mut path.segments;
+        match &path.ray.exit {
+            Some(exit) => {
+                let _ = exit.try_for_each_segment(&path.ray.chords, |seg| {
+                    segments.push(seg);
+                    ControlFlow::<()>::Continue(())
+                });
+            }
+            None => {
+                tracking::walk(&self.geometry, &self.levels_km, ray, |seg| {
+                    segments.push(seg);
+                    ControlFlow::Continue(())
+                });
+            }
+        }
+        if path.segments.iter().any(|seg| !seg.t1.is_finite()) {
+            return false;
+        }
+        if path.segments.is_empty() {
+            return true;
+        }
+        let s0 = self.sun.direction;
+        let k_out = -ray.dir;
+        let cos0 = (-s0).dot(k_out);
+        let exact = matches!(self.geometry, Geometry::PlaneParallel);
+        let share = if exact { 1.0 } else { SUN_AWARE_SHARE };
+        // Per segment and channel: depths along the flight and toward the
+        // sun, and σ_s·P11 at the sun's centre.
+        let mut sun_basis = [0.0f64; 16];
+        let mut tau_basis = [0.0f64; 16];
+        debug_assert!(b <= sun_basis.len());
+        let weights = &spectra.weights;
+        let channel_sum = |w: usize, v: &[f64]| -> f64 {
+            weights[w * b..(w + 1) * b]
+                .iter()
+                .zip(v)
+                .map(|(a, x)| a * x)
+                .sum::<f64>()
+                .max(0.0)
+        };
+        path.terms.clear();
+        path.terms.resize(path.segments.len() * n, FlightTerms::default());
+        let first = path.segments[0];
+        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_basis[..b]);
+        for w in 0..n {
+            path.terms[w].sun0 = channel_sum(w, &sun_basis[..b]);
+        }
+        for (k, seg) in path.segments.iter().enumerate() {
+            let len = seg.t1 - seg.t0;
+            depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_basis[..b]);
+            for w in 0..n {
+                let c = spectra.layers[seg.layer * n + w];
+                let depolarization = c.rayleigh_depolarization;
+                let mut sca = c.sigma_rayleigh * PhaseFunction::Rayleigh { depolarization }.p11(cos0);
+                if c.sigma_aerosol_sca > 0.0 {
+                    sca += c.sigma_aerosol_sca * PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.p11(cos0);
+                }
+                let sun1 = channel_sum(w, &sun_basis[..b]);
+                let t = &mut path.terms[k * n + w];
+                t.tau0 = channel_sum(w, &tau_basis[..b]);
+                t.tau_seg = c.sigma_t * len;
+                t.sun1 = sun1;
+                t.c = sca;
+                if k + 1 < path.segments.len() {
+                    path.terms[(k + 1) * n + w].sun0 = sun1;
+                }
+            }
+            self.accumulate(&mut tau_basis[..b], seg.layer, len);
+        }
+        // Per channel: the integrals of both densities over each segment,
+        // from one exponential per segment boundary (both exponents are
+        // continuous along the flight), the sun's shifted by its minimum.
+        path.point_weights.clear();
+        let segs = path.segments.len();
+        let integral = |c: f64, len: f64, w0: f64, w1: f64, de: f64| {
+            c * len
+                * if de.abs() < 1e-7 {
+                    0.5 * (w0 + w1)
+                } else {
+                    (w0 - w1) / de
+                }
+        };
+        // (e_min, sun total, flight total) per channel.
+        let mut totals = Vec::with_capacity(n);
+        for w in 0..n {
+            let at = |k: usize| &path.terms[k * n + w];
+            let e_min = (0..segs)
+                .map(|k| {
+                    let t = at(k);
+                    (t.tau0 + t.sun0).min(t.tau0 + t.tau_seg + t.sun1)
+                })
+                .fold(f64::INFINITY, f64::min);
+            let (mut sun_total, mut flight_total) = (0.0, 0.0);
+            let mut w_sun = (-(at(0).tau0 + at(0).sun0 - e_min)).exp();
+            let mut w_flight = (-at(0).tau0).exp();
+            for k in 0..segs {
+                let len = path.segments[k].t1 - path.segments[k].t0;
+                let t = &mut path.terms[k * n + w];
+                let w_sun1 = (-(t.tau0 + t.tau_seg + t.sun1 - e_min)).exp();
+                let w_flight1 = (-(t.tau0 + t.tau_seg)).exp();
+                t.sun_integral = integral(t.c, len, w_sun, w_sun1, t.tau_seg + t.sun1 - t.sun0);
+                t.flight_integral = integral(t.c, len, w_flight, w_flight1, t.tau_seg);
+                (w_sun, w_flight) = (w_sun1, w_flight1);
+                sun_total += t.sun_integral;
+                flight_total += t.flight_integral;
+            }
+            let valid = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
+            totals.push((e_min, sun_total, flight_total, valid));
+        }
+        let valid: Vec<usize> = (0..n).filter(|&w| totals[w].3).collect();
+        if valid.is_empty() {
+            return true;
+        }
+        // A channel, a density, a segment by its integral, a point in it.
+        let j = valid[((sampler.next_f64() * valid.len() as f64) as usize).min(valid.len() - 1)];
+        let from_sun = share == 1.0 || sampler.next_f64() < share;
+        let weight_of = |t: &FlightTerms| if from_sun { t.sun_integral } else { t.flight_integral };
+        let mut target = sampler.next_f64() * if from_sun { totals[j].1 } else { totals[j].2 };
+        let mut k = (0..segs)
+            .find(|&k| {
+                let wk = weight_of(&path.terms[k * n + j]);
+                target -= wk;
+                target < 0.0 && wk > 0.0
+            })
+            .unwrap_or_else(|| {
+                (0..segs)
+                    .rev()
+                    .find(|&k| weight_of(&path.terms[k * n + j]) > 0.0)
+                    .unwrap_or(0)
+            });
+        k = k.min(segs - 1);
+        let tj = path.terms[k * n + j];
+        let de = if from_sun {
+            tj.tau_seg + tj.sun1 - tj.sun0
+        } else {
+            tj.tau_seg
+        };
+        let v = sampler.next_f64();
+        let u = if de.abs() < 1e-9 {
+            v
+        } else {
+            -(-v * (-(-de).exp_m1())).ln_1p() / de
+        };
+        let seg = path.segments[k];
+        let x = ray.origin + (seg.t0 + u * (seg.t1 - seg.t0)) * ray.dir;
+        // The mixture's density at the point, per unit length, and each
+        // channel's e^(−τ_w) there.
+        let mut q = 0.0;
+        for &w in &valid {
+            let t = &path.terms[k * n + w];
+            let (e_min, sun_total, flight_total, _) = totals[w];
+            let tau = t.tau0 + u * t.tau_seg;
+            let sun = t.sun0 + u * (t.sun1 - t.sun0);
+            q += t.c * (share * (e_min - tau - sun).exp() / sun_total + (1.0 - share) * (-tau).exp() / flight_total);
+        }
+        q /= valid.len() as f64;
+        if q.is_nan() || q <= 0.0 {
+            return true;
+        }
+        for &w in &valid {
+            let t = &path.terms[k * n + w];
+            path.point_weights.push((-(t.tau0 + u * t.tau_seg)).exp() / q);
+        }
+        // One shadow ray for every channel.
+        let s = self.sun.sample_direction(sampler.next2());
+        if !self.sun_depths(path, spectra, x, s, seg.layer) {
+            return true;
+        }
+        let k_in = -s;
+        let cos = k_in.dot(k_out);
+        let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
+        for (i, &w) in valid.iter().enumerate() {
+            let tr = (-path.shadow.tau[w]).exp();
+            if tr <= 0.0 {
+                continue;
+            }
+            let c = spectra.layers[seg.layer * n + w];
+            let m = phase_mixture(&c).matrix(cos);
+            let column = if self.settings.polarized {
+                rotation.column_of(&path.throughput[w], &m)
+            } else {
+                path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
+            };
+            let f = path.point_weights[i] * c.sigma_s() * tr * INV_4PI;
+            path.add(w, column * f);
+        }
+        true
+    }
+
     /// Every channel's optical depth toward the sun from `x` into
-    /// `path.tau_exit`; false when the shadow ray hits the planet.
+    /// `path.shadow`; false when the shadow ray hits the planet.
     fn sun_depths(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, dir: DVec3, layer: usize) -> bool {
-        let end = self.exit_depths(path, spectra, &Ray { origin: x, dir, layer });
+        let end = self.exit_depths(&mut path.shadow, spectra, &Ray { origin: x, dir, layer });
         matches!(end, Some(WalkEnd::Top { .. }))
     }
 
@@ -883,7 +1199,7 @@ impl SpectralScene {
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
         for w in 0..self.channels.len() {
-            let tr = (-path.tau_exit[w]).exp();
+            let tr = (-path.shadow.tau[w]).exp();
             if tr <= 0.0 {
                 continue;
             }
@@ -919,7 +1235,7 @@ impl SpectralScene {
         let mu_s = s.dot(up);
         if mu_s > 0.0 && self.sun_depths(path, spectra, x, s, 0) {
             for w in 0..self.channels.len() {
-                let f = FRAC_1_PI * mu_s * (-path.tau_exit[w]).exp();
+                let f = FRAC_1_PI * mu_s * (-path.shadow.tau[w]).exp();
                 let m = &path.throughput[w].0;
                 let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
                 path.add(w, column * f);

@@ -24,12 +24,16 @@ use crate::tracking::{self, Ray, WalkEnd};
 const BLOCKED_DEPTH: f64 = 60.0;
 const MU_NODES: usize = 129;
 
-/// Approximate optical depth toward the sun.
+/// Approximate optical depth toward the sun. A table may hold several
+/// extinction profiles at once (the basis of shared spectral paths),
+/// interleaved so that one lookup reads them all.
 #[derive(Debug, Clone)]
 pub enum SunDepth {
     PlaneParallel {
         levels_km: Vec<f64>,
+        /// tau_above[level · profiles + profile]
         tau_above: Vec<f64>,
+        profiles: usize,
         mu0: f64,
         /// False in pseudo-spherical geometry, where the direct beam is
         /// attenuated along spherical shells and τ_above/μ0 is only an
@@ -41,8 +45,9 @@ pub enum SunDepth {
         /// The levels and their midpoints: altitude node 2i is level i,
         /// 2i + 1 the middle of layer i.
         altitudes_km: Vec<f64>,
-        /// depth[altitude node · MU_NODES + mu node]
+        /// depth[(altitude node · MU_NODES + mu node) · profiles + profile]
         depth: Vec<f64>,
+        profiles: usize,
         /// Per layer, the square of its middle radius; per level, 1/radius
         /// (for points on a level, see [`SunDepth::at_end_in_layer`]).
         mid_radius_sq: Vec<f64>,
@@ -63,22 +68,58 @@ fn mu_index(mu: f64) -> f64 {
 }
 
 impl SunDepth {
-    /// The table for `medium` and sun direction `sun` (observer frame);
-    /// `pseudo_spherical` when the direct beam is attenuated along
-    /// spherical shells in an otherwise plane-parallel `geometry`.
+    /// The table for a piecewise-constant `medium` and sun direction `sun`
+    /// (observer frame); `pseudo_spherical` when the direct beam is
+    /// attenuated along spherical shells in an otherwise plane-parallel
+    /// `geometry`.
     pub fn new(medium: &Medium, geometry: &Geometry, sun: DVec3, pseudo_spherical: bool) -> SunDepth {
-        let levels = medium.levels_km().to_vec();
+        let levels = medium.levels_km();
+        let sigma: Vec<f64> = levels
+            .windows(2)
+            .enumerate()
+            .map(|(i, w)| medium.at(i, 0.5 * (w[0] + w[1])).sigma_t)
+            .collect();
+        SunDepth::of_profile(levels, &sigma, geometry, sun, pseudo_spherical)
+    }
+
+    /// The table for extinction `sigma` (per km, one value per layer of
+    /// `levels_km`).
+    pub fn of_profile(
+        levels_km: &[f64],
+        sigma: &[f64],
+        geometry: &Geometry,
+        sun: DVec3,
+        pseudo_spherical: bool,
+    ) -> SunDepth {
+        SunDepth::of_profiles(levels_km, &[sigma.to_vec()], geometry, sun, pseudo_spherical)
+    }
+
+    /// One table for several extinction profiles (each per km, one value
+    /// per layer): of the extinction terms per unit amount, whose depths
+    /// combine linearly into any channel's.
+    pub fn of_profiles(
+        levels_km: &[f64],
+        sigmas: &[Vec<f64>],
+        geometry: &Geometry,
+        sun: DVec3,
+        pseudo_spherical: bool,
+    ) -> SunDepth {
+        let levels = levels_km.to_vec();
+        let profiles = sigmas.len();
         match *geometry {
             Geometry::PlaneParallel => {
                 let n = levels.len() - 1;
-                let mut tau_above = vec![0.0; n + 1];
+                let mut tau_above = vec![0.0; (n + 1) * profiles];
                 for i in (0..n).rev() {
-                    let z = 0.5 * (levels[i] + levels[i + 1]);
-                    tau_above[i] = tau_above[i + 1] + medium.at(i, z).sigma_t * (levels[i + 1] - levels[i]);
+                    for (p, sigma) in sigmas.iter().enumerate() {
+                        tau_above[i * profiles + p] =
+                            tau_above[(i + 1) * profiles + p] + sigma[i] * (levels[i + 1] - levels[i]);
+                    }
                 }
                 SunDepth::PlaneParallel {
                     levels_km: levels,
                     tau_above,
+                    profiles,
                     mu0: sun.z,
                     exact: !pseudo_spherical,
                 }
@@ -90,31 +131,36 @@ impl SunDepth {
                     altitudes.push(0.5 * (w[0] + w[1]));
                 }
                 altitudes.push(levels[levels.len() - 1]);
-                let levels = &levels;
-                let depth = altitudes
-                    .iter()
-                    .flat_map(|&z| {
-                        (0..MU_NODES).map(move |k| {
-                            let mu = mu_node(k);
-                            let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-                            match tracking::layer_at(levels, z, mu) {
-                                None if mu >= 0.0 => 0.0,
-                                None => BLOCKED_DEPTH,
-                                Some(layer) => {
-                                    let ray = Ray {
-                                        origin: DVec3::new(0.0, 0.0, radius_km + z),
-                                        dir,
-                                        layer,
-                                    };
-                                    match tracking::optical_depth(medium, geometry, &ray) {
-                                        (tau, WalkEnd::Top { .. }) => tau.min(BLOCKED_DEPTH),
-                                        _ => BLOCKED_DEPTH,
+                let mut depth = Vec::with_capacity(altitudes.len() * MU_NODES * profiles);
+                let mut tau = vec![0.0; profiles];
+                for &z in &altitudes {
+                    for k in 0..MU_NODES {
+                        let mu = mu_node(k);
+                        let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+                        match tracking::layer_at(&levels, z, mu) {
+                            None if mu >= 0.0 => depth.extend(std::iter::repeat_n(0.0, profiles)),
+                            None => depth.extend(std::iter::repeat_n(BLOCKED_DEPTH, profiles)),
+                            Some(layer) => {
+                                let ray = Ray {
+                                    origin: DVec3::new(0.0, 0.0, radius_km + z),
+                                    dir,
+                                    layer,
+                                };
+                                tau.fill(0.0);
+                                let end = tracking::walk(geometry, &levels, &ray, |seg| {
+                                    for (t, sigma) in tau.iter_mut().zip(sigmas) {
+                                        *t += sigma[seg.layer] * (seg.t1 - seg.t0);
                                     }
+                                    std::ops::ControlFlow::Continue(())
+                                });
+                                match end {
+                                    WalkEnd::Top { .. } => depth.extend(tau.iter().map(|t| t.min(BLOCKED_DEPTH))),
+                                    _ => depth.extend(std::iter::repeat_n(BLOCKED_DEPTH, profiles)),
                                 }
                             }
-                        })
-                    })
-                    .collect();
+                        }
+                    }
+                }
                 SunDepth::Spherical {
                     radius_km,
                     mid_radius_sq: levels
@@ -124,8 +170,16 @@ impl SunDepth {
                     inv_level_radius: levels.iter().map(|&z| 1.0 / (radius_km + z)).collect(),
                     altitudes_km: altitudes,
                     depth,
+                    profiles,
                 }
             }
+        }
+    }
+
+    /// The number of extinction profiles in the table.
+    pub fn profiles(&self) -> usize {
+        match self {
+            SunDepth::PlaneParallel { profiles, .. } | SunDepth::Spherical { profiles, .. } => *profiles,
         }
     }
 
@@ -152,28 +206,43 @@ impl SunDepth {
 
     /// [`SunDepth::at`] for a point `x` known to lie in (or on the
     /// boundary of) `layer`: no search over the altitudes (the sun-aware
-    /// sampling calls this at both ends of every segment of a flight).
+    /// sampling calls this at the start of every flight). First profile.
     #[inline]
     pub fn at_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
+        let mut out = [0.0; 1];
+        self.at_in_layer_into(x, sun, layer, &mut out);
+        out[0]
+    }
+
+    /// [`SunDepth::at_in_layer`] of every profile, into `out`.
+    #[inline]
+    pub fn at_in_layer_into(&self, x: DVec3, sun: DVec3, layer: usize, out: &mut [f64]) {
         match self {
             SunDepth::PlaneParallel {
                 levels_km,
                 tau_above,
                 mu0,
+                profiles,
                 ..
             } => {
                 if *mu0 <= 0.0 {
-                    return BLOCKED_DEPTH;
+                    out.fill(BLOCKED_DEPTH);
+                    return;
                 }
                 let i = layer.min(levels_km.len() - 2);
                 let (z0, z1) = (levels_km[i], levels_km[i + 1]);
                 let f = ((x.z - z0) / (z1 - z0)).clamp(0.0, 1.0);
-                ((tau_above[i] + (tau_above[i + 1] - tau_above[i]) * f) / mu0).min(BLOCKED_DEPTH)
+                let p = *profiles;
+                for (j, o) in out.iter_mut().enumerate().take(p) {
+                    let (a, b) = (tau_above[i * p + j], tau_above[(i + 1) * p + j]);
+                    *o = ((a + (b - a) * f) / mu0).min(BLOCKED_DEPTH);
+                }
             }
             SunDepth::Spherical {
                 radius_km,
                 altitudes_km,
                 depth,
+                profiles,
                 ..
             } => {
                 let r = x.length();
@@ -191,11 +260,14 @@ impl SunDepth {
                 let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
                 let k = (m as usize).min(MU_NODES - 2);
                 let fm = m - k as f64;
-                let row0 = &depth[i * MU_NODES + k..i * MU_NODES + k + 2];
-                let row1 = &depth[(i + 1) * MU_NODES + k..(i + 1) * MU_NODES + k + 2];
-                let d0 = row0[0] + (row0[1] - row0[0]) * fm;
-                let d1 = row1[0] + (row1[1] - row1[0]) * fm;
-                d0 + (d1 - d0) * fz
+                let p = *profiles;
+                let row0 = (i * MU_NODES + k) * p;
+                let row1 = ((i + 1) * MU_NODES + k) * p;
+                for (j, o) in out.iter_mut().enumerate().take(p) {
+                    let d0 = depth[row0 + j] + (depth[row0 + p + j] - depth[row0 + j]) * fm;
+                    let d1 = depth[row1 + j] + (depth[row1 + p + j] - depth[row1 + j]) * fm;
+                    *o = d0 + (d1 - d0) * fz;
+                }
             }
         }
     }
@@ -203,8 +275,17 @@ impl SunDepth {
     /// [`SunDepth::at_in_layer`] for a point `x` on the bottom or top level
     /// of `layer` (the end of a flight's segment in it; the nearer level is
     /// taken): the table's row of that level, interpolated in μ only.
+    /// First profile.
     #[inline]
     pub fn at_end_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
+        let mut out = [0.0; 1];
+        self.at_end_in_layer_into(x, sun, layer, &mut out);
+        out[0]
+    }
+
+    /// [`SunDepth::at_end_in_layer`] of every profile, into `out`.
+    #[inline]
+    pub fn at_end_in_layer_into(&self, x: DVec3, sun: DVec3, layer: usize, out: &mut [f64]) {
         match self {
             SunDepth::PlaneParallel { levels_km, .. } => {
                 let i = layer.min(levels_km.len() - 2);
@@ -213,12 +294,13 @@ impl SunDepth {
                 } else {
                     i + 1
                 };
-                self.at_in_layer(DVec3::new(x.x, x.y, levels_km[level]), sun, i)
+                self.at_in_layer_into(DVec3::new(x.x, x.y, levels_km[level]), sun, i, out)
             }
             SunDepth::Spherical {
                 depth,
                 mid_radius_sq,
                 inv_level_radius,
+                profiles,
                 ..
             } => {
                 let i = layer.min(mid_radius_sq.len() - 1);
@@ -230,8 +312,12 @@ impl SunDepth {
                 let mu = (x.dot(sun) * inv_level_radius[level]).clamp(-1.0, 1.0);
                 let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
                 let k = (m as usize).min(MU_NODES - 2);
-                let row = &depth[2 * level * MU_NODES + k..2 * level * MU_NODES + k + 2];
-                row[0] + (row[1] - row[0]) * (m - k as f64)
+                let fm = m - k as f64;
+                let p = *profiles;
+                let row = (2 * level * MU_NODES + k) * p;
+                for (j, o) in out.iter_mut().enumerate().take(p) {
+                    *o = depth[row + j] + (depth[row + p + j] - depth[row + j]) * fm;
+                }
             }
         }
     }

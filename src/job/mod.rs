@@ -12,7 +12,6 @@ use serde::Deserialize;
 use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
 use crate::integrator::Scene;
-use crate::integrator::SunSampling;
 use crate::medium::{Medium, MediumModel};
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
@@ -238,11 +237,9 @@ impl Job {
 
     /// The shared-spectral-path scene of a task: all channels at once, when
     /// the job has bands, or more than one wavelength with
-    /// `render.shared_wavelengths` on, the media allow it (see `spectral`)
-    /// and (for wavelengths) the task does not get sun-aware sun
-    /// connections (which shared paths do not have, and which matter more
-    /// for a low sun); `None` otherwise. Bands always use shared paths
-    /// (their `auto` sun sampling connects at collisions).
+    /// `render.shared_wavelengths` on, and the media allow it (see
+    /// `spectral`); `None` otherwise. Sun-aware connections as for one
+    /// wavelength (`render.sun_sampling`).
     pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
         let plane_parallel = self.plane_parallel_transport();
         let sun_aware = self
@@ -250,7 +247,7 @@ impl Job {
             .settings
             .sun_sampling
             .is_sun_aware(task.sun.zenith_deg, plane_parallel);
-        let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1 && !sun_aware);
+        let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1);
         if !wanted || self.shared_paths_blocked().is_some() {
             return None;
         }
@@ -263,6 +260,7 @@ impl Job {
             self.render.albedos.clone(),
             self.render.settings,
         );
+        let scene = if sun_aware { scene.with_sun_aware() } else { scene };
         Some(match &self.solar {
             Some(solar) if self.tracer_weights_by_source() => scene.with_source(solar.clone()),
             _ => scene,
@@ -334,13 +332,8 @@ impl Job {
             ));
         }
         let r = &self.render;
-        let conflicts: [(&str, bool, &str); 3] = [
+        let conflicts: [(&str, bool, &str); 2] = [
             ("render.shared_wavelengths", !r.shared_wavelengths, "false"),
-            (
-                "render.sun_sampling",
-                r.settings.sun_sampling == SunSampling::SunAware,
-                "\"sun_aware\"",
-            ),
             ("output.sun", r.output_sun, "true"),
         ];
         if let Some((key, _, value)) = conflicts.iter().find(|c| c.1) {
