@@ -109,8 +109,8 @@ struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
     source: Vec<f64>,
-    /// Each layer's coefficients per channel (`[layer·channels + channel]`),
-    /// with sun-aware connections only.
+    /// Each layer's coefficients for the channels the sun-aware density
+    /// follows (`[layer·K + k]`, `SpectralScene::sun_channels`).
     layers: Vec<PointCoefficients>,
 }
 
@@ -150,6 +150,9 @@ pub struct SpectralScene {
     /// toward the sun of each basis vector (a channel's is their sum
     /// weighted as its extinction); `None`: connections at collisions.
     sun_depth: Option<SunDepth>,
+    /// The channels whose densities the sun-aware point is drawn from:
+    /// those of the least, the median and the largest column extinction.
+    sun_channels: Vec<usize>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -199,8 +202,8 @@ struct Path {
     /// segment and channel what the density needs ([`FlightTerms`]).
     segments: Vec<Segment>,
     terms: Vec<FlightTerms>,
-    /// Per channel scoring the point: e^(−τ)/q there.
-    point_weights: Vec<f64>,
+    /// Per segment, the basis depths along the flight at its start.
+    segment_tau: Vec<f64>,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -391,6 +394,7 @@ impl SpectralScene {
             fixed: None,
             source: None,
             sun_depth: None,
+            sun_channels: Vec::new(),
         };
         if !banded {
             let mut fixed = ChannelSpectra {
@@ -436,6 +440,25 @@ impl SpectralScene {
             self.sun.direction,
             false,
         ));
+        // The channels by column extinction at their centres.
+        let t = self.terms.terms.len();
+        let mut responses = vec![Response::default(); t];
+        let mut columns: Vec<(f64, usize)> = self
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(w, c)| {
+                self.terms.responses_into(c.lambda_nm, &mut responses);
+                let column = (0..layers)
+                    .map(|l| self.terms.layer_sum(l, &responses).ext * (self.levels_km[l + 1] - self.levels_km[l]))
+                    .sum::<f64>();
+                (column, w)
+            })
+            .collect();
+        columns.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n = columns.len();
+        self.sun_channels = [0, n / 2, n - 1].iter().map(|&i| columns[i].1).collect();
+        self.sun_channels.dedup();
         if let Some(mut fixed) = self.fixed.take() {
             self.refresh_layers(&mut fixed);
             self.fixed = Some(fixed);
@@ -443,14 +466,13 @@ impl SpectralScene {
         self
     }
 
-    /// Fills the spectra's coefficients per layer and channel (read by
-    /// sun-aware connections at every segment of a flight).
+    /// Fills the spectra's coefficients per layer of the channels the
+    /// sun-aware density follows (read at every segment of a flight).
     fn refresh_layers(&self, spectra: &mut ChannelSpectra) {
-        let n = self.channels.len();
         let layers = self.levels_km.len() - 1;
         spectra.layers.clear();
         for l in 0..layers {
-            for w in 0..n {
+            for &w in &self.sun_channels {
                 let c = self.coefficients(spectra, l, w);
                 spectra.layers.push(c);
             }
@@ -965,24 +987,29 @@ impl SpectralScene {
     }
 
     /// Next-event estimation along a whole flight (`path.ray` holds its
-    /// depths), every channel from one point: the point is drawn from the
-    /// mixture over the channels q = (1/N)·Σ_j q_j, each q_j itself the
-    /// defensive mixture of the single-wavelength tracer, α·q_sun,j +
-    /// (1 − α)·q_flight,j with q_sun,j ∝ σ_s·P11·e^(−τ_j)·e^(−τ̃_sun,j) and
-    /// q_flight,j ∝ σ_s·P11·e^(−τ_j), piecewise exponential over the
+    /// depths), every channel from one point. The point is drawn from the
+    /// mixture q = (1/K)·Σ_k q_k over K ≤ 3 channels (those of the least,
+    /// the median and the largest column extinction), each q_k the
+    /// defensive mixture of the single-wavelength tracer, α·q_sun,k +
+    /// (1 − α)·q_flight,k, with q_sun,k ∝ σ_s·P11·e^(−τ_k)·e^(−τ̃_sun,k)
+    /// and q_flight,k ∝ σ_s·P11·e^(−τ_k), piecewise exponential over the
     /// flight's segments (α = 1 where τ̃_sun is exact, plane-parallel).
-    /// Channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased
-    /// for its single-scattering integral along the flight, whatever the
-    /// hero, and at most N/(1 − α) times the weight of sampling its own
-    /// flight. The point density is the same for every channel, so the
-    /// path's spectral MIS weight (over the densities of the vertices
-    /// before) applies unchanged. Returns false (nothing done) without
-    /// sun-aware connections or for an endless flight.
+    /// Channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased for
+    /// its single-scattering integral along the flight whatever the hero,
+    /// since q > 0 wherever σ_s > 0. Including the least extinct channel
+    /// bounds the weight of every channel more extinct than it in every
+    /// layer by K/(1 − α) times their ratio of σ_s (its e^(−τ) and T_sun
+    /// are the smaller); ozone's bands can break that order in places.
+    /// The point's density is the same for every channel, so the path's
+    /// spectral MIS weight (over the densities of the vertices before)
+    /// applies unchanged. Returns false (nothing done) without sun-aware
+    /// connections or for an endless flight.
     fn sun_along_flight(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray, sampler: &mut Sampler) -> bool {
         let Some(depth) = &self.sun_depth else {
             return false;
         };
-        let n = self.channels.len();
+        let reps = &self.sun_channels;
+        let nk = reps.len();
         let b = self.basis_len;
         // The flight's segments.
         path.segments.clear();
@@ -1004,16 +1031,18 @@ impl SpectralScene {
         if path.segments.iter().any(|seg| !seg.t1.is_finite()) {
             return false;
         }
-        if path.segments.is_empty() {
+        let segs = path.segments.len();
+        if segs == 0 {
             return true;
         }
         let s0 = self.sun.direction;
         let k_out = -ray.dir;
         let cos0 = (-s0).dot(k_out);
-        let exact = matches!(self.geometry, Geometry::PlaneParallel);
-        let share = if exact { 1.0 } else { SUN_AWARE_SHARE };
-        // Per segment and channel: depths along the flight and toward the
-        // sun, and σ_s·P11 at the sun's centre.
+        let share = if matches!(self.geometry, Geometry::PlaneParallel) {
+            1.0
+        } else {
+            SUN_AWARE_SHARE
+        };
         let mut sun_basis = [0.0f64; 16];
         let mut tau_basis = [0.0f64; 16];
         debug_assert!(b <= sun_basis.len());
@@ -1026,40 +1055,52 @@ impl SpectralScene {
                 .sum::<f64>()
                 .max(0.0)
         };
+        // Rayleigh's P11 at the sun's centre per followed channel (its
+        // depolarisation is the channel's, not the layer's).
+        let mut rayleigh = [(f64::NAN, 0.0); 3];
+        let mut aerosol = [(f64::NAN, 0.0); 3];
         path.terms.clear();
-        path.terms.resize(path.segments.len() * n, FlightTerms::default());
+        path.terms.resize(segs * nk, FlightTerms::default());
+        path.segment_tau.clear();
         let first = path.segments[0];
         depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_basis[..b]);
-        for w in 0..n {
-            path.terms[w].sun0 = channel_sum(w, &sun_basis[..b]);
+        for (k, &w) in reps.iter().enumerate() {
+            path.terms[k].sun0 = channel_sum(w, &sun_basis[..b]);
         }
-        for (k, seg) in path.segments.iter().enumerate() {
+        for (i, seg) in path.segments.iter().enumerate() {
             let len = seg.t1 - seg.t0;
+            path.segment_tau.extend_from_slice(&tau_basis[..b]);
             depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_basis[..b]);
-            for w in 0..n {
-                let c = spectra.layers[seg.layer * n + w];
-                let depolarization = c.rayleigh_depolarization;
-                let mut sca = c.sigma_rayleigh * PhaseFunction::Rayleigh { depolarization }.p11(cos0);
+            for (k, &w) in reps.iter().enumerate() {
+                let c = spectra.layers[seg.layer * nk + k];
+                if rayleigh[k].0 != c.rayleigh_depolarization {
+                    let depolarization = c.rayleigh_depolarization;
+                    rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
+                }
+                let mut sca = c.sigma_rayleigh * rayleigh[k].1;
                 if c.sigma_aerosol_sca > 0.0 {
-                    sca += c.sigma_aerosol_sca * PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }.p11(cos0);
+                    if aerosol[k].0 != c.aerosol_g {
+                        let g = c.aerosol_g;
+                        aerosol[k] = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
+                    }
+                    sca += c.sigma_aerosol_sca * aerosol[k].1;
                 }
                 let sun1 = channel_sum(w, &sun_basis[..b]);
-                let t = &mut path.terms[k * n + w];
+                let t = &mut path.terms[i * nk + k];
                 t.tau0 = channel_sum(w, &tau_basis[..b]);
                 t.tau_seg = c.sigma_t * len;
                 t.sun1 = sun1;
                 t.c = sca;
-                if k + 1 < path.segments.len() {
-                    path.terms[(k + 1) * n + w].sun0 = sun1;
+                if i + 1 < segs {
+                    path.terms[(i + 1) * nk + k].sun0 = sun1;
                 }
             }
             self.accumulate(&mut tau_basis[..b], seg.layer, len);
         }
-        // Per channel: the integrals of both densities over each segment,
-        // from one exponential per segment boundary (both exponents are
-        // continuous along the flight), the sun's shifted by its minimum.
-        path.point_weights.clear();
-        let segs = path.segments.len();
+        // Per followed channel: the integrals of both densities over each
+        // segment, from one exponential per segment boundary (both
+        // exponents are continuous along the flight), the sun's shifted by
+        // its minimum.
         let integral = |c: f64, len: f64, w0: f64, w1: f64, de: f64| {
             c * len
                 * if de.abs() < 1e-7 {
@@ -1068,22 +1109,22 @@ impl SpectralScene {
                     (w0 - w1) / de
                 }
         };
-        // (e_min, sun total, flight total) per channel.
-        let mut totals = Vec::with_capacity(n);
-        for w in 0..n {
-            let at = |k: usize| &path.terms[k * n + w];
+        // (e_min, sun total, flight total, usable) per followed channel.
+        let mut totals = [(0.0, 0.0, 0.0, false); 3];
+        for (k, total) in totals.iter_mut().enumerate().take(nk) {
+            let at = |i: usize| &path.terms[i * nk + k];
             let e_min = (0..segs)
-                .map(|k| {
-                    let t = at(k);
+                .map(|i| {
+                    let t = at(i);
                     (t.tau0 + t.sun0).min(t.tau0 + t.tau_seg + t.sun1)
                 })
                 .fold(f64::INFINITY, f64::min);
             let (mut sun_total, mut flight_total) = (0.0, 0.0);
             let mut w_sun = (-(at(0).tau0 + at(0).sun0 - e_min)).exp();
             let mut w_flight = (-at(0).tau0).exp();
-            for k in 0..segs {
-                let len = path.segments[k].t1 - path.segments[k].t0;
-                let t = &mut path.terms[k * n + w];
+            for i in 0..segs {
+                let len = path.segments[i].t1 - path.segments[i].t0;
+                let t = &mut path.terms[i * nk + k];
                 let w_sun1 = (-(t.tau0 + t.tau_seg + t.sun1 - e_min)).exp();
                 let w_flight1 = (-(t.tau0 + t.tau_seg)).exp();
                 t.sun_integral = integral(t.c, len, w_sun, w_sun1, t.tau_seg + t.sun1 - t.sun0);
@@ -1092,36 +1133,35 @@ impl SpectralScene {
                 sun_total += t.sun_integral;
                 flight_total += t.flight_integral;
             }
-            let valid = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
-            totals.push((e_min, sun_total, flight_total, valid));
+            let usable = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
+            *total = (e_min, sun_total, flight_total, usable);
         }
-        let valid: Vec<usize> = (0..n).filter(|&w| totals[w].3).collect();
-        if valid.is_empty() {
+        let usable: Vec<usize> = (0..nk).filter(|&k| totals[k].3).collect();
+        if usable.is_empty() {
             return true;
         }
-        // A channel, a density, a segment by its integral, a point in it.
-        let j = valid[((sampler.next_f64() * valid.len() as f64) as usize).min(valid.len() - 1)];
+        // A followed channel, a density, a segment by its integral, a point.
+        let k = usable[((sampler.next_f64() * usable.len() as f64) as usize).min(usable.len() - 1)];
         let from_sun = share == 1.0 || sampler.next_f64() < share;
         let weight_of = |t: &FlightTerms| if from_sun { t.sun_integral } else { t.flight_integral };
-        let mut target = sampler.next_f64() * if from_sun { totals[j].1 } else { totals[j].2 };
-        let mut k = (0..segs)
-            .find(|&k| {
-                let wk = weight_of(&path.terms[k * n + j]);
-                target -= wk;
-                target < 0.0 && wk > 0.0
+        let mut target = sampler.next_f64() * if from_sun { totals[k].1 } else { totals[k].2 };
+        let i = (0..segs)
+            .find(|&i| {
+                let wi = weight_of(&path.terms[i * nk + k]);
+                target -= wi;
+                target < 0.0 && wi > 0.0
             })
             .unwrap_or_else(|| {
                 (0..segs)
                     .rev()
-                    .find(|&k| weight_of(&path.terms[k * n + j]) > 0.0)
+                    .find(|&i| weight_of(&path.terms[i * nk + k]) > 0.0)
                     .unwrap_or(0)
             });
-        k = k.min(segs - 1);
-        let tj = path.terms[k * n + j];
+        let tk = path.terms[i * nk + k];
         let de = if from_sun {
-            tj.tau_seg + tj.sun1 - tj.sun0
+            tk.tau_seg + tk.sun1 - tk.sun0
         } else {
-            tj.tau_seg
+            tk.tau_seg
         };
         let v = sampler.next_f64();
         let u = if de.abs() < 1e-9 {
@@ -1129,26 +1169,27 @@ impl SpectralScene {
         } else {
             -(-v * (-(-de).exp_m1())).ln_1p() / de
         };
-        let seg = path.segments[k];
-        let x = ray.origin + (seg.t0 + u * (seg.t1 - seg.t0)) * ray.dir;
-        // The mixture's density at the point, per unit length, and each
-        // channel's e^(−τ_w) there.
+        let seg = path.segments[i];
+        let len = seg.t1 - seg.t0;
+        let x = ray.origin + (seg.t0 + u * len) * ray.dir;
+        // The mixture's density at the point, per unit length.
         let mut q = 0.0;
-        for &w in &valid {
-            let t = &path.terms[k * n + w];
-            let (e_min, sun_total, flight_total, _) = totals[w];
+        for &k in &usable {
+            let t = &path.terms[i * nk + k];
+            let (e_min, sun_total, flight_total, _) = totals[k];
             let tau = t.tau0 + u * t.tau_seg;
             let sun = t.sun0 + u * (t.sun1 - t.sun0);
             q += t.c * (share * (e_min - tau - sun).exp() / sun_total + (1.0 - share) * (-tau).exp() / flight_total);
         }
-        q /= valid.len() as f64;
+        q /= usable.len() as f64;
         if q.is_nan() || q <= 0.0 {
             return true;
         }
-        for &w in &valid {
-            let t = &path.terms[k * n + w];
-            path.point_weights.push((-(t.tau0 + u * t.tau_seg)).exp() / q);
+        // Every channel's depth along the flight to the point.
+        for (t, s) in tau_basis[..b].iter_mut().zip(&path.segment_tau[i * b..(i + 1) * b]) {
+            *t = *s;
         }
+        self.accumulate(&mut tau_basis[..b], seg.layer, u * len);
         // One shadow ray for every channel.
         let s = self.sun.sample_direction(sampler.next2());
         if !self.sun_depths(path, spectra, x, s, seg.layer) {
@@ -1157,19 +1198,19 @@ impl SpectralScene {
         let k_in = -s;
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
-        for (i, &w) in valid.iter().enumerate() {
+        for w in 0..self.channels.len() {
             let tr = (-path.shadow.tau[w]).exp();
             if tr <= 0.0 {
                 continue;
             }
-            let c = spectra.layers[seg.layer * n + w];
+            let c = self.coefficients(spectra, seg.layer, w);
             let m = phase_mixture(&c).matrix(cos);
             let column = if self.settings.polarized {
                 rotation.column_of(&path.throughput[w], &m)
             } else {
                 path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
             };
-            let f = path.point_weights[i] * c.sigma_s() * tr * INV_4PI;
+            let f = (-channel_sum(w, &tau_basis[..b])).exp() / q * c.sigma_s() * tr * INV_4PI;
             path.add(w, column * f);
         }
         true
