@@ -1043,9 +1043,11 @@ impl SpectralScene {
         } else {
             SUN_AWARE_SHARE
         };
-        let mut sun_basis = [0.0f64; 16];
+        // Each basis vector's depth toward the sun, then the blocked
+        // fraction (`SunDepth::combine`).
+        let mut sun_basis = [0.0f64; 17];
         let mut tau_basis = [0.0f64; 16];
-        debug_assert!(b <= sun_basis.len());
+        debug_assert!(b < tau_basis.len());
         let weights = &spectra.weights;
         let channel_sum = |w: usize, v: &[f64]| -> f64 {
             weights[w * b..(w + 1) * b]
@@ -1063,14 +1065,15 @@ impl SpectralScene {
         path.terms.resize(segs * nk, FlightTerms::default());
         path.segment_tau.clear();
         let first = path.segments[0];
-        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_basis[..b]);
+        let sun_of = |w: usize, v: &[f64]| SunDepth::combine(&weights[w * b..(w + 1) * b], v);
+        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_basis[..=b]);
         for (k, &w) in reps.iter().enumerate() {
-            path.terms[k].sun0 = channel_sum(w, &sun_basis[..b]);
+            path.terms[k].sun0 = sun_of(w, &sun_basis[..=b]);
         }
         for (i, seg) in path.segments.iter().enumerate() {
             let len = seg.t1 - seg.t0;
             path.segment_tau.extend_from_slice(&tau_basis[..b]);
-            depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_basis[..b]);
+            depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_basis[..=b]);
             for (k, &w) in reps.iter().enumerate() {
                 let c = spectra.layers[seg.layer * nk + k];
                 if rayleigh[k].0 != c.rayleigh_depolarization {
@@ -1085,7 +1088,7 @@ impl SpectralScene {
                     }
                     sca += c.sigma_aerosol_sca * aerosol[k].1;
                 }
-                let sun1 = channel_sum(w, &sun_basis[..b]);
+                let sun1 = sun_of(w, &sun_basis[..=b]);
                 let t = &mut path.terms[i * nk + k];
                 t.tau0 = channel_sum(w, &tau_basis[..b]);
                 t.tau_seg = c.sigma_t * len;

@@ -45,7 +45,9 @@ pub enum SunDepth {
         /// The levels and their midpoints: altitude node 2i is level i,
         /// 2i + 1 the middle of layer i.
         altitudes_km: Vec<f64>,
-        /// depth[(altitude node · MU_NODES + mu node) · profiles + profile]
+        /// depth[(altitude node · MU_NODES + mu node) · (profiles + 1) + j]:
+        /// each profile's depth (0 where blocked), then 1 where the ray
+        /// toward the sun meets the planet, else 0.
         depth: Vec<f64>,
         profiles: usize,
         /// Per layer, the square of its middle radius; per level, 1/radius
@@ -137,9 +139,13 @@ impl SunDepth {
                     for k in 0..MU_NODES {
                         let mu = mu_node(k);
                         let dir = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+                        let blocked = |depth: &mut Vec<f64>| {
+                            depth.extend(std::iter::repeat_n(0.0, profiles));
+                            depth.push(1.0);
+                        };
                         match tracking::layer_at(&levels, z, mu) {
-                            None if mu >= 0.0 => depth.extend(std::iter::repeat_n(0.0, profiles)),
-                            None => depth.extend(std::iter::repeat_n(BLOCKED_DEPTH, profiles)),
+                            None if mu >= 0.0 => depth.extend(std::iter::repeat_n(0.0, profiles + 1)),
+                            None => blocked(&mut depth),
                             Some(layer) => {
                                 let ray = Ray {
                                     origin: DVec3::new(0.0, 0.0, radius_km + z),
@@ -154,8 +160,11 @@ impl SunDepth {
                                     std::ops::ControlFlow::Continue(())
                                 });
                                 match end {
-                                    WalkEnd::Top { .. } => depth.extend(tau.iter().map(|t| t.min(BLOCKED_DEPTH))),
-                                    _ => depth.extend(std::iter::repeat_n(BLOCKED_DEPTH, profiles)),
+                                    WalkEnd::Top { .. } => {
+                                        depth.extend_from_slice(&tau);
+                                        depth.push(0.0);
+                                    }
+                                    _ => blocked(&mut depth),
                                 }
                             }
                         }
@@ -205,16 +214,28 @@ impl SunDepth {
     }
 
     /// [`SunDepth::at`] for a point `x` known to lie in (or on the
-    /// boundary of) `layer`: no search over the altitudes (the sun-aware
-    /// sampling calls this at the start of every flight). First profile.
+    /// boundary of) `layer`: no search over the altitudes. First profile.
     #[inline]
     pub fn at_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
-        let mut out = [0.0; 1];
+        let mut out = [0.0; 2];
         self.at_in_layer_into(x, sun, layer, &mut out);
-        out[0]
+        SunDepth::combine(&[1.0], &out)
     }
 
-    /// [`SunDepth::at_in_layer`] of every profile, into `out`.
+    /// A channel's approximate depth from a lookup `values` (each
+    /// profile's depth, then the blocked fraction) and the channel's
+    /// `weights` on the profiles: Σ w·τ + 60·blocked, at most 60 (the depth
+    /// given to rays into the planet; the density must stay positive).
+    #[inline]
+    pub fn combine(weights: &[f64], values: &[f64]) -> f64 {
+        let p = weights.len();
+        let tau: f64 = weights.iter().zip(&values[..p]).map(|(w, t)| w * t).sum();
+        (tau.max(0.0) + BLOCKED_DEPTH * values[p]).min(BLOCKED_DEPTH)
+    }
+
+    /// [`SunDepth::at_in_layer`] of every profile into `out` (profiles + 1
+    /// values: each profile's depth, then the blocked fraction; see
+    /// [`SunDepth::combine`]).
     #[inline]
     pub fn at_in_layer_into(&self, x: DVec3, sun: DVec3, layer: usize, out: &mut [f64]) {
         match self {
@@ -225,18 +246,20 @@ impl SunDepth {
                 profiles,
                 ..
             } => {
+                let p = *profiles;
                 if *mu0 <= 0.0 {
-                    out.fill(BLOCKED_DEPTH);
+                    out[..p].fill(0.0);
+                    out[p] = 1.0;
                     return;
                 }
                 let i = layer.min(levels_km.len() - 2);
                 let (z0, z1) = (levels_km[i], levels_km[i + 1]);
                 let f = ((x.z - z0) / (z1 - z0)).clamp(0.0, 1.0);
-                let p = *profiles;
                 for (j, o) in out.iter_mut().enumerate().take(p) {
                     let (a, b) = (tau_above[i * p + j], tau_above[(i + 1) * p + j]);
-                    *o = ((a + (b - a) * f) / mu0).min(BLOCKED_DEPTH);
+                    *o = (a + (b - a) * f) / mu0;
                 }
+                out[p] = 0.0;
             }
             SunDepth::Spherical {
                 radius_km,
@@ -260,12 +283,12 @@ impl SunDepth {
                 let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
                 let k = (m as usize).min(MU_NODES - 2);
                 let fm = m - k as f64;
-                let p = *profiles;
-                let row0 = (i * MU_NODES + k) * p;
-                let row1 = ((i + 1) * MU_NODES + k) * p;
-                for (j, o) in out.iter_mut().enumerate().take(p) {
-                    let d0 = depth[row0 + j] + (depth[row0 + p + j] - depth[row0 + j]) * fm;
-                    let d1 = depth[row1 + j] + (depth[row1 + p + j] - depth[row1 + j]) * fm;
+                let stride = *profiles + 1;
+                let row0 = (i * MU_NODES + k) * stride;
+                let row1 = ((i + 1) * MU_NODES + k) * stride;
+                for (j, o) in out.iter_mut().enumerate().take(stride) {
+                    let d0 = depth[row0 + j] + (depth[row0 + stride + j] - depth[row0 + j]) * fm;
+                    let d1 = depth[row1 + j] + (depth[row1 + stride + j] - depth[row1 + j]) * fm;
                     *o = d0 + (d1 - d0) * fz;
                 }
             }
@@ -278,12 +301,13 @@ impl SunDepth {
     /// First profile.
     #[inline]
     pub fn at_end_in_layer(&self, x: DVec3, sun: DVec3, layer: usize) -> f64 {
-        let mut out = [0.0; 1];
+        let mut out = [0.0; 2];
         self.at_end_in_layer_into(x, sun, layer, &mut out);
-        out[0]
+        SunDepth::combine(&[1.0], &out)
     }
 
-    /// [`SunDepth::at_end_in_layer`] of every profile, into `out`.
+    /// [`SunDepth::at_end_in_layer`] of every profile into `out` (as
+    /// [`SunDepth::at_in_layer_into`]).
     #[inline]
     pub fn at_end_in_layer_into(&self, x: DVec3, sun: DVec3, layer: usize, out: &mut [f64]) {
         match self {
@@ -313,10 +337,10 @@ impl SunDepth {
                 let m = mu_index(mu).clamp(0.0, (MU_NODES - 1) as f64);
                 let k = (m as usize).min(MU_NODES - 2);
                 let fm = m - k as f64;
-                let p = *profiles;
-                let row = (2 * level * MU_NODES + k) * p;
-                for (j, o) in out.iter_mut().enumerate().take(p) {
-                    *o = depth[row + j] + (depth[row + p + j] - depth[row + j]) * fm;
+                let stride = *profiles + 1;
+                let row = (2 * level * MU_NODES + k) * stride;
+                for (j, o) in out.iter_mut().enumerate().take(stride) {
+                    *o = depth[row + j] + (depth[row + stride + j] - depth[row + j]) * fm;
                 }
             }
         }
@@ -481,5 +505,54 @@ mod tests {
             worst > 10.0,
             "the table is now close to exact at the shadow's edge ({worst}): revisit SUN_AWARE_SHARE"
         );
+    }
+
+    #[test]
+    fn profiles_combine_linearly_whatever_their_units() {
+        // Shared paths tabulate each extinction term per unit amount (an
+        // ozone column in molecules per cm² is ~1e19) and weight it per
+        // channel: a profile scaled by 1e19 and weighted by 1e-19 reads as
+        // the profile itself, sunlit or blocked, in either geometry.
+        let text = "[spectrum]\nwavelengths_nm = [340.0]\n";
+        let atm = Job::parse(text, "t", Path::new(".")).unwrap().atmosphere;
+        let m = Medium::new(&atm, 0, MediumModel::Layered, 1.0);
+        let levels = m.levels_km();
+        let sigma: Vec<f64> = (0..levels.len() - 1)
+            .map(|i| m.at(i, 0.5 * (levels[i] + levels[i + 1])).sigma_t)
+            .collect();
+        let scaled: Vec<f64> = sigma.iter().map(|s| s * 1e19).collect();
+        let radius = 6378.0;
+        for (g, elevation) in [
+            (Geometry::Spherical { radius_km: radius }, -2.0f64),
+            (Geometry::Spherical { radius_km: radius }, 5.0),
+            (Geometry::PlaneParallel, 30.0),
+            (Geometry::PlaneParallel, -1.0),
+        ] {
+            let e = elevation.to_radians();
+            let sun = DVec3::new(e.cos(), 0.0, e.sin());
+            let one = SunDepth::of_profile(levels, &sigma, &g, sun, false);
+            let both = SunDepth::of_profiles(levels, &[scaled.clone(), sigma.clone()], &g, sun, false);
+            assert_eq!(both.profiles(), 2);
+            for (i, &z) in levels.iter().enumerate().take(levels.len() - 1) {
+                for angle in [-4.0f64, 0.0, 3.0, 60.0] {
+                    let a = angle.to_radians();
+                    let x = match g {
+                        Geometry::Spherical { .. } => (radius + z + 0.3) * DVec3::new(a.sin(), 0.0, a.cos()),
+                        Geometry::PlaneParallel => DVec3::new(angle, 0.0, z + 0.3),
+                    };
+                    let expect = one.at_in_layer(x, sun, i);
+                    let mut v = [0.0; 3];
+                    both.at_in_layer_into(x, sun, i, &mut v);
+                    let scaled_only = SunDepth::combine(&[1e-19, 0.0], &v);
+                    let unscaled_only = SunDepth::combine(&[0.0, 1.0], &v);
+                    for got in [scaled_only, unscaled_only] {
+                        assert!(
+                            (got - expect).abs() <= 1e-9 * (1.0 + expect),
+                            "{g:?} elevation {elevation} level {i} angle {angle}: {got} vs {expect}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
