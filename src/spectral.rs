@@ -109,9 +109,6 @@ struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
     source: Vec<f64>,
-    /// Each layer's coefficients for the channels the sun-aware density
-    /// follows (`[layer·K + k]`, `SpectralScene::sun_channels`).
-    layers: Vec<PointCoefficients>,
 }
 
 /// The basis optical depths are computed on.
@@ -146,13 +143,9 @@ pub struct SpectralScene {
     /// The extraterrestrial irradiance radiances are weighted by (absolute
     /// units); `None`: per unit E0.
     source: Option<Arc<SolarSpectrum>>,
-    /// Sun-aware connections along every flight: the approximate depth
-    /// toward the sun of each basis vector (a channel's is their sum
-    /// weighted as its extinction); `None`: connections at collisions.
-    sun_depth: Option<SunDepth>,
-    /// The channels whose densities the sun-aware point is drawn from:
-    /// those of the least, the median and the largest column extinction.
-    sun_channels: Vec<usize>,
+    /// Sun-aware connections along every flight (`None`: connections at
+    /// collisions).
+    sun_follow: Option<SunFollow>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -243,6 +236,22 @@ struct FlightTerms {
     /// segment.
     sun_integral: f64,
     flight_integral: f64,
+}
+
+/// What sun-aware connections along shared paths draw their point from:
+/// the densities of the channels of the least and the largest column
+/// extinction, each with its optics at its centre wavelength whatever a
+/// path drew inside its band (any density will do that the contributions
+/// are divided by; these need no work per path). On an 11-band twilight
+/// fisheye a third, median channel cost 13 % more time for the same
+/// error in the worst band.
+#[derive(Debug, Clone)]
+struct SunFollow {
+    /// Their depths toward the sun, one profile each.
+    depth: SunDepth,
+    channels: Vec<usize>,
+    /// Their coefficients per layer (`[layer·K + k]`).
+    coefficients: Vec<PointCoefficients>,
 }
 
 /// A thread's reusable state: the path, the spare the path's first vertex
@@ -393,15 +402,13 @@ impl SpectralScene {
             basis_steps,
             fixed: None,
             source: None,
-            sun_depth: None,
-            sun_channels: Vec::new(),
+            sun_follow: None,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
                 responses: centre,
                 weights: vec![0.0; n * b],
                 source: Vec::new(),
-                layers: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
             scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
@@ -428,55 +435,49 @@ impl SpectralScene {
     /// scattering of the channels ([`SpectralScene::sun_along_flight`])
     /// instead of the connection at the collision.
     pub fn with_sun_aware(mut self) -> SpectralScene {
-        let b = self.basis_len;
         let layers = self.levels_km.len() - 1;
-        let sigmas: Vec<Vec<f64>> = (0..b)
-            .map(|j| (0..layers).map(|l| self.basis_sigma[l * b + j]).collect())
-            .collect();
-        self.sun_depth = Some(SunDepth::of_profiles(
-            &self.levels_km,
-            &sigmas,
-            &self.geometry,
-            self.sun.direction,
-            false,
-        ));
-        // The channels by column extinction at their centres.
+        // Each channel's coefficients per layer at its centre wavelength,
+        // and its column extinction.
         let t = self.terms.terms.len();
         let mut responses = vec![Response::default(); t];
-        let mut columns: Vec<(f64, usize)> = self
+        let mut centre: Vec<(f64, usize, Vec<PointCoefficients>)> = self
             .channels
             .iter()
             .enumerate()
             .map(|(w, c)| {
                 self.terms.responses_into(c.lambda_nm, &mut responses);
-                let column = (0..layers)
-                    .map(|l| self.terms.layer_sum(l, &responses).ext * (self.levels_km[l + 1] - self.levels_km[l]))
+                let coeffs: Vec<PointCoefficients> = (0..layers)
+                    .map(|l| self.terms.layer_sum(l, &responses).coefficients())
+                    .collect();
+                let column = coeffs
+                    .iter()
+                    .enumerate()
+                    .map(|(l, c)| c.sigma_t * (self.levels_km[l + 1] - self.levels_km[l]))
                     .sum::<f64>();
-                (column, w)
+                (column, w, coeffs)
             })
             .collect();
-        columns.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let n = columns.len();
-        self.sun_channels = [0, n / 2, n - 1].iter().map(|&i| columns[i].1).collect();
-        self.sun_channels.dedup();
-        if let Some(mut fixed) = self.fixed.take() {
-            self.refresh_layers(&mut fixed);
-            self.fixed = Some(fixed);
-        }
-        self
-    }
-
-    /// Fills the spectra's coefficients per layer of the channels the
-    /// sun-aware density follows (read at every segment of a flight).
-    fn refresh_layers(&self, spectra: &mut ChannelSpectra) {
-        let layers = self.levels_km.len() - 1;
-        spectra.layers.clear();
+        centre.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n = centre.len();
+        let mut picks = vec![0, n - 1];
+        picks.dedup();
+        let followed: Vec<&(f64, usize, Vec<PointCoefficients>)> = picks.iter().map(|&i| &centre[i]).collect();
+        let k = followed.len();
+        let sigmas: Vec<Vec<f64>> = followed
+            .iter()
+            .map(|f| f.2.iter().map(|c| c.sigma_t).collect())
+            .collect();
+        let depth = SunDepth::of_profiles(&self.levels_km, &sigmas, &self.geometry, self.sun.direction, false);
+        let mut coefficients = Vec::with_capacity(layers * k);
         for l in 0..layers {
-            for &w in &self.sun_channels {
-                let c = self.coefficients(spectra, l, w);
-                spectra.layers.push(c);
-            }
+            coefficients.extend(followed.iter().map(|f| f.2[l]));
         }
+        self.sun_follow = Some(SunFollow {
+            depth,
+            channels: followed.iter().map(|f| f.1).collect(),
+            coefficients,
+        });
+        self
     }
 
     /// Fills the spectra's source factors for the channels' wavelengths
@@ -525,9 +526,6 @@ impl SpectralScene {
         }
         self.refresh_weights(spectra);
         self.refresh_source(spectra, lambda);
-        if self.sun_depth.is_some() {
-            self.refresh_layers(spectra);
-        }
     }
 
     /// The direct solar irradiance on a horizontal plane at the observer
@@ -988,28 +986,29 @@ impl SpectralScene {
 
     /// Next-event estimation along a whole flight (`path.ray` holds its
     /// depths), every channel from one point. The point is drawn from the
-    /// mixture q = (1/K)·Σ_k q_k over K ≤ 3 channels (those of the least,
-    /// the median and the largest column extinction), each q_k the
-    /// defensive mixture of the single-wavelength tracer, α·q_sun,k +
-    /// (1 − α)·q_flight,k, with q_sun,k ∝ σ_s·P11·e^(−τ_k)·e^(−τ̃_sun,k)
-    /// and q_flight,k ∝ σ_s·P11·e^(−τ_k), piecewise exponential over the
-    /// flight's segments (α = 1 where τ̃_sun is exact, plane-parallel).
-    /// Channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased for
-    /// its single-scattering integral along the flight whatever the hero,
-    /// since q > 0 wherever σ_s > 0. Including the least extinct channel
-    /// bounds the weight of every channel more extinct than it in every
-    /// layer by K/(1 − α) times their ratio of σ_s (its e^(−τ) and T_sun
-    /// are the smaller); ozone's bands can break that order in places.
-    /// The point's density is the same for every channel, so the path's
-    /// spectral MIS weight (over the densities of the vertices before)
-    /// applies unchanged. Returns false (nothing done) without sun-aware
-    /// connections or for an endless flight.
+    /// mixture q = (1/K)·Σ_k q_k over the K ≤ 2 followed channels (the
+    /// least and the most extinct, with their centre wavelengths' optics,
+    /// [`SunFollow`]), each q_k the defensive mixture of the
+    /// single-wavelength tracer, α·q_sun,k + (1 − α)·q_flight,k with
+    /// q_sun,k ∝ σ_s·P11·e^(−τ_k)·e^(−τ̃_sun,k) and q_flight,k ∝
+    /// σ_s·P11·e^(−τ_k), piecewise exponential over the flight's segments
+    /// (α = 1 where τ̃_sun is exact, plane-parallel). Channel w scores
+    /// e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased for its
+    /// single-scattering integral along the flight whatever the hero, since
+    /// q > 0 wherever σ_s > 0. Following the least extinct channel bounds
+    /// the weight of every channel more extinct than it in every layer by
+    /// K/(1 − α) times their ratio of σ_s (its e^(−τ) and T_sun are the
+    /// smaller); ozone's bands, and a band's own wavelengths, can break that
+    /// order in places. The point's density is the same for every channel,
+    /// so the path's spectral MIS weight (over the densities of the vertices
+    /// before) applies unchanged. Returns false (nothing done) without
+    /// sun-aware connections or for an endless flight.
     fn sun_along_flight(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray, sampler: &mut Sampler) -> bool {
-        let Some(depth) = &self.sun_depth else {
+        let Some(follow) = &self.sun_follow else {
             return false;
         };
-        let reps = &self.sun_channels;
-        let nk = reps.len();
+        let depth = &follow.depth;
+        let nk = follow.channels.len();
         let b = self.basis_len;
         // The flight's segments.
         path.segments.clear();
@@ -1043,11 +1042,14 @@ impl SpectralScene {
         } else {
             SUN_AWARE_SHARE
         };
-        // Each basis vector's depth toward the sun, then the blocked
-        // fraction (`SunDepth::combine`).
-        let mut sun_basis = [0.0f64; 17];
+        // Each followed channel's depth toward the sun, then the blocked
+        // fraction (`SunDepth::combine`); its depth along the flight; the
+        // basis depths along the flight (for every channel's).
+        let mut sun_k = [0.0f64; 3];
+        let mut tau_k = [0.0f64; 2];
         let mut tau_basis = [0.0f64; 16];
         debug_assert!(b < tau_basis.len());
+        let sun_of = |k: usize, v: &[f64]| (v[k] + 60.0 * v[nk]).min(60.0);
         let weights = &spectra.weights;
         let channel_sum = |w: usize, v: &[f64]| -> f64 {
             weights[w * b..(w + 1) * b]
@@ -1059,23 +1061,22 @@ impl SpectralScene {
         };
         // Rayleigh's P11 at the sun's centre per followed channel (its
         // depolarisation is the channel's, not the layer's).
-        let mut rayleigh = [(f64::NAN, 0.0); 3];
-        let mut aerosol = [(f64::NAN, 0.0); 3];
+        let mut rayleigh = [(f64::NAN, 0.0); 2];
+        let mut aerosol = [(f64::NAN, 0.0); 2];
         path.terms.clear();
         path.terms.resize(segs * nk, FlightTerms::default());
         path.segment_tau.clear();
         let first = path.segments[0];
-        let sun_of = |w: usize, v: &[f64]| SunDepth::combine(&weights[w * b..(w + 1) * b], v);
-        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_basis[..=b]);
-        for (k, &w) in reps.iter().enumerate() {
-            path.terms[k].sun0 = sun_of(w, &sun_basis[..=b]);
+        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_k[..=nk]);
+        for k in 0..nk {
+            path.terms[k].sun0 = sun_of(k, &sun_k);
         }
         for (i, seg) in path.segments.iter().enumerate() {
             let len = seg.t1 - seg.t0;
             path.segment_tau.extend_from_slice(&tau_basis[..b]);
-            depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_basis[..=b]);
-            for (k, &w) in reps.iter().enumerate() {
-                let c = spectra.layers[seg.layer * nk + k];
+            depth.at_end_in_layer_into(ray.origin + seg.t1 * ray.dir, s0, seg.layer, &mut sun_k[..=nk]);
+            for k in 0..nk {
+                let c = follow.coefficients[seg.layer * nk + k];
                 if rayleigh[k].0 != c.rayleigh_depolarization {
                     let depolarization = c.rayleigh_depolarization;
                     rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
@@ -1088,10 +1089,11 @@ impl SpectralScene {
                     }
                     sca += c.sigma_aerosol_sca * aerosol[k].1;
                 }
-                let sun1 = sun_of(w, &sun_basis[..=b]);
+                let sun1 = sun_of(k, &sun_k);
                 let t = &mut path.terms[i * nk + k];
-                t.tau0 = channel_sum(w, &tau_basis[..b]);
+                t.tau0 = tau_k[k];
                 t.tau_seg = c.sigma_t * len;
+                tau_k[k] += t.tau_seg;
                 t.sun1 = sun1;
                 t.c = sca;
                 if i + 1 < segs {
@@ -1113,7 +1115,7 @@ impl SpectralScene {
                 }
         };
         // (e_min, sun total, flight total, usable) per followed channel.
-        let mut totals = [(0.0, 0.0, 0.0, false); 3];
+        let mut totals = [(0.0, 0.0, 0.0, false); 2];
         for (k, total) in totals.iter_mut().enumerate().take(nk) {
             let at = |i: usize| &path.terms[i * nk + k];
             let e_min = (0..segs)
@@ -1175,16 +1177,24 @@ impl SpectralScene {
         let seg = path.segments[i];
         let len = seg.t1 - seg.t0;
         let x = ray.origin + (seg.t0 + u * len) * ray.dir;
-        // The mixture's density at the point, per unit length.
+        // The density the point was drawn from, per unit length: for each
+        // followed channel and part, the chance of the segment (its
+        // integral over the total) times the density of u inside it.
+        let inside = |de: f64| {
+            if de.abs() < 1e-9 {
+                1.0
+            } else {
+                de * (-de * u).exp() / -(-de).exp_m1()
+            }
+        };
         let mut q = 0.0;
         for &k in &usable {
             let t = &path.terms[i * nk + k];
-            let (e_min, sun_total, flight_total, _) = totals[k];
-            let tau = t.tau0 + u * t.tau_seg;
-            let sun = t.sun0 + u * (t.sun1 - t.sun0);
-            q += t.c * (share * (e_min - tau - sun).exp() / sun_total + (1.0 - share) * (-tau).exp() / flight_total);
+            let (_, sun_total, flight_total, _) = totals[k];
+            q += share * t.sun_integral / sun_total * inside(t.tau_seg + t.sun1 - t.sun0)
+                + (1.0 - share) * t.flight_integral / flight_total * inside(t.tau_seg);
         }
-        q /= usable.len() as f64;
+        q /= usable.len() as f64 * len;
         if q.is_nan() || q <= 0.0 {
             return true;
         }

@@ -38,22 +38,31 @@ const DIRECTIONS: [(f64, f64); 4] = [(0.0, 0.0), (60.0, 0.0), (80.0, 150.0), (12
 
 #[test]
 fn band_channels_estimate_the_band_averaged_radiance() {
-    // (atmosphere, channels (centre, width)): a wide band where Rayleigh
-    // varies ×3.6, and a band with ozone beside a monochromatic channel.
-    let cases: [(&str, &[(f64, f64)]); 2] = [
+    // (atmosphere, channels (centre, width), sun elevation): a wide band
+    // where Rayleigh varies ×3.6, a band with ozone beside a monochromatic
+    // channel, and two bands with the sun set (sun-aware connections along
+    // the shared paths, and for the single wavelengths).
+    let cases: [(&str, &[(f64, f64)], f64); 3] = [
         (
             "[atmosphere]\nozone = \"none\"\naerosol = \"continental_average\"\nvisibility_km = 30.0\n",
             &[(380.0, 120.0), (650.0, 100.0)],
+            25.0,
         ),
         (
             "[atmosphere]\nozone = \"bogumil\"\naerosol = \"urban\"\n",
             &[(600.0, 40.0), (520.0, 0.0)],
+            25.0,
+        ),
+        (
+            "[atmosphere]\nozone = \"bogumil\"\naerosol = \"continental_average\"\n",
+            &[(440.0, 40.0), (620.0, 40.0)],
+            -2.0,
         ),
     ];
     let samples = common::samples(30_000);
     let dirs = directions(&DIRECTIONS);
     let mut cmp = Comparison::default();
-    for (c, (atmosphere, channels)) in cases.iter().enumerate() {
+    for (c, (atmosphere, channels, elevation)) in cases.iter().enumerate() {
         let list = |f: &dyn Fn(&(f64, f64)) -> f64| {
             channels
                 .iter()
@@ -63,7 +72,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
                 .join(", ")
         };
         let text = format!(
-            "{atmosphere}[spectrum]\nwavelengths_nm = [{}]\nband_width_nm = [{}]\n[sun]\nelevation_deg = 25.0\n\
+            "{atmosphere}[spectrum]\nwavelengths_nm = [{}]\nband_width_nm = [{}]\n[sun]\nelevation_deg = {elevation:?}\n\
              [observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n",
             list(&|c| c.0),
             list(&|c| c.1)
@@ -84,7 +93,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
             };
             let node_list = nodes.iter().map(|n| format!("{}", n.0)).collect::<Vec<_>>().join(", ");
             let mono = job(&format!(
-                "{atmosphere}[spectrum]\nwavelengths_nm = [{node_list}]\n[sun]\nelevation_deg = 25.0\n\
+                "{atmosphere}[spectrum]\nwavelengths_nm = [{node_list}]\n[sun]\nelevation_deg = {elevation:?}\n\
                  [observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n"
             ));
             let renders: Vec<_> = (0..nodes.len())
