@@ -42,7 +42,8 @@ fn band_channels_estimate_the_band_averaged_radiance() {
     // where Rayleigh varies ×3.6, a band with ozone beside a monochromatic
     // channel, and two bands with the sun set (sun-aware connections along
     // the shared paths, and for the single wavelengths).
-    let cases: [(&str, &[(f64, f64)], f64); 3] = [
+    type Case<'a> = (&'a str, &'a [(f64, f64)], f64);
+    let cases: [Case; 3] = [
         (
             "[atmosphere]\nozone = \"none\"\naerosol = \"continental_average\"\nvisibility_km = 30.0\n",
             &[(380.0, 120.0), (650.0, 100.0)],
