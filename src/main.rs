@@ -799,9 +799,9 @@ fn write_slurm(
     let (time, estimate) = match time {
         Some(t) => (t, None),
         None => {
-            let rates = plan::calibrate(job);
-            let secs = plan::unit_seconds(job, shards, &rates, cpus);
-            (plan::hms(secs), Some(rates))
+            let calibration = plan::calibrate(job);
+            let secs = plan::unit_seconds(job, shards, &calibration, cpus);
+            (plan::hms(secs), Some(calibration))
         }
     };
     let script = plan::slurm_script(job, &options, &time);
@@ -815,12 +815,12 @@ fn write_slurm(
             "note: {units} units exceed SLURM's default MaxArraySize (1001); submit in slices with ATMOSIM_UNIT_OFFSET (see the script's header)"
         );
     }
-    if let Some(rates) = estimate {
-        let rate = match rates.shared {
-            Some(shared) => format!("{shared:.0} shared spectral paths/s"),
-            None => format!("{:.0} paths/s", rates.single),
-        };
-        eprintln!("time per unit {time}: twice the estimate at {rate} per core on {cpus} cpus, plus 10 minutes");
+    if let Some(calibration) = estimate {
+        let hours = calibration.max_task_core_seconds(job) / 3600.0;
+        eprintln!(
+            "time per unit {time}: twice the estimate of the dearest task ({hours:.1} core-hours, rates calibrated \
+             per class of sun elevation) over {shards} shards on {cpus} cpus, plus 10 minutes"
+        );
     }
     println!("{}", path.display());
     eprintln!(

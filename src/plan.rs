@@ -3,28 +3,88 @@
 //! directions × samples, plus the flux estimates of a directions sensor;
 //! every albedo from the same paths; once for shared spectral paths, else
 //! once per wavelength) over throughputs measured by short single-thread
-//! calibration renders of the first task: one at its middle wavelength,
+//! calibration renders of the first task of each class of sun elevation
+//! ([`SunClass`]: a set sun, a low one, day): one at its middle wavelength,
 //! and one along shared paths when the task's wavelengths share them (a
 //! shared path carries every channel and costs more than a single one).
 
 use std::io::{self, Write};
 use std::time::Instant;
 
-use crate::job::{Job, Sensor};
+use crate::job::{Job, Sensor, Task};
 use crate::render::{Direction, render_directions, render_directions_spectral};
 use crate::shard::Shard;
 use crate::unit::Layout;
 
 /// Paths of one task (shared spectral paths and single-wavelength paths).
-pub fn task_paths(job: &Job) -> u64 {
-    let (shared, single) = layout(job).paths_by_source(Shard::WHOLE);
+pub fn task_paths(job: &Job, task: &Task) -> u64 {
+    let (shared, single) = layout(job, task).paths_by_source(Shard::WHOLE);
     shared + single
 }
 
-/// The estimates of the first task.
-fn layout(job: &Job) -> Layout {
-    let task = &job.tasks[0];
+/// The estimates of a task.
+fn layout(job: &Job, task: &Task) -> Layout {
     Layout::new(job, task, job.spectral_scene(task).is_some())
+}
+
+/// Sun elevations whose paths cost alike: below the horizon, up to 10°
+/// (where `sun_sampling = "auto"` connects along whole flights), and above.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SunClass {
+    Set,
+    Low,
+    Day,
+}
+
+impl SunClass {
+    /// The class of a task's sun.
+    pub fn of(task: &Task) -> SunClass {
+        let elevation = 90.0 - task.sun.zenith_deg;
+        if elevation < 0.0 {
+            SunClass::Set
+        } else if elevation < 10.0 {
+            SunClass::Low
+        } else {
+            SunClass::Day
+        }
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            SunClass::Set => "sun below the horizon",
+            SunClass::Low => "sun 0° to 10°",
+            SunClass::Day => "sun 10° and higher",
+        }
+    }
+}
+
+/// Calibrated throughputs per class of sun elevation, each from the
+/// class's first task.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    pub classes: Vec<(SunClass, usize, Rates)>,
+}
+
+impl Calibration {
+    /// The rates of `task`'s class.
+    pub fn rates(&self, task: &Task) -> &Rates {
+        let class = SunClass::of(task);
+        let found = self.classes.iter().find(|c| c.0 == class).or(self.classes.first());
+        &found.expect("a calibration has at least one class").2
+    }
+
+    /// Core-seconds of `task`.
+    pub fn task_core_seconds(&self, job: &Job, task: &Task) -> f64 {
+        task_core_seconds(job, task, self.rates(task))
+    }
+
+    /// Core-seconds of the job's dearest task.
+    pub fn max_task_core_seconds(&self, job: &Job) -> f64 {
+        job.tasks
+            .iter()
+            .map(|t| self.task_core_seconds(job, t))
+            .fold(0.0, f64::max)
+    }
 }
 
 /// Calibrated throughputs, paths per second on one core.
@@ -37,16 +97,28 @@ pub struct Rates {
 }
 
 /// Core-seconds of one task at `rates`.
-pub fn task_core_seconds(job: &Job, rates: &Rates) -> f64 {
-    let (shared, single) = layout(job).paths_by_source(Shard::WHOLE);
+pub fn task_core_seconds(job: &Job, task: &Task, rates: &Rates) -> f64 {
+    let (shared, single) = layout(job, task).paths_by_source(Shard::WHOLE);
     single as f64 / rates.single.max(1e-9) + shared as f64 / rates.shared.unwrap_or(rates.single).max(1e-9)
 }
 
-/// Paths per second on one core for the first task, from about 0.2 s of
-/// rendering over directions spread on the sphere: at its middle
-/// wavelength, and along shared paths if its wavelengths share them.
-pub fn calibrate(job: &Job) -> Rates {
-    let task = &job.tasks[0];
+/// Paths per second on one core for the first task of each class of sun
+/// elevation in the job.
+pub fn calibrate(job: &Job) -> Calibration {
+    let mut classes: Vec<(SunClass, usize, Rates)> = Vec::new();
+    for task in &job.tasks {
+        let class = SunClass::of(task);
+        if !classes.iter().any(|c| c.0 == class) {
+            classes.push((class, task.index, calibrate_task(job, task)));
+        }
+    }
+    Calibration { classes }
+}
+
+/// Paths per second on one core for `task`, from about 0.2 s of rendering
+/// over directions spread on the sphere: at its middle wavelength, and
+/// along shared paths if its wavelengths share them.
+fn calibrate_task(job: &Job, task: &Task) -> Rates {
     let scene = job.scene_for(task, job.wavelengths_nm.len() / 2);
     let directions: Vec<Direction> = (0..16)
         .map(|k| Direction {
@@ -86,9 +158,7 @@ pub fn calibrate(job: &Job) -> Rates {
 
 /// Writes the plan: one line per task, then the totals.
 pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
-    let paths = task_paths(job);
-    let rates = calibrate(job);
-    let hours = task_core_seconds(job, &rates) / 3600.0;
+    let calibration = calibrate(job);
     let sensor = match &job.render.sensor {
         Sensor::Directions(d) => format!("{} directions", d.len()),
         Sensor::Image(c) => {
@@ -105,24 +175,34 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
         job.render.albedos.len(),
         job.render.samples
     )?;
-    match rates.shared {
-        Some(shared) => writeln!(
-            out,
-            "# throughput from calibration renders of task 0: {shared:.0} shared spectral paths/s per core \
-             ({:.0} at one wavelength)",
-            rates.single
-        )?,
-        None => writeln!(
-            out,
-            "# throughput from a calibration render of task 0: {:.0} paths/s per core",
-            rates.single
-        )?,
+    for (class, task, rates) in &calibration.classes {
+        let tasks = job.tasks.iter().filter(|t| SunClass::of(t) == *class).count();
+        match rates.shared {
+            Some(shared) => writeln!(
+                out,
+                "# {} ({tasks} tasks): calibrated on task {task}: {shared:.0} shared spectral paths/s per core \
+                 ({:.0} at one wavelength)",
+                class.label(),
+                rates.single
+            )?,
+            None => writeln!(
+                out,
+                "# {} ({tasks} tasks): calibrated on task {task}: {:.0} paths/s per core",
+                class.label(),
+                rates.single
+            )?,
+        }
     }
     writeln!(
         out,
         "task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"
     )?;
+    let (mut total_paths, mut total_hours) = (0.0, 0.0);
     for t in &job.tasks {
+        let paths = task_paths(job, t);
+        let hours = calibration.task_core_seconds(job, t) / 3600.0;
+        total_paths += paths as f64;
+        total_hours += hours;
         writeln!(
             out,
             "{},{},{},{:.3},{},{paths},{hours:.4}",
@@ -135,15 +215,13 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
             t.observer_altitude_km
         )?;
     }
-    let total = paths as f64 * job.tasks.len() as f64;
     writeln!(
         out,
-        "# total: {total:.3e} paths, {:.1} core-hours at the calibrated rate",
-        hours * job.tasks.len() as f64
+        "# total: {total_paths:.3e} paths, {total_hours:.1} core-hours at the calibrated rates"
     )?;
     writeln!(
         out,
-        "# (low suns and high observers have longer paths: treat the estimate as a guide)"
+        "# (visibility and the observer's altitude change the cost too, within a class: treat the estimate as a guide)"
     )
 }
 
@@ -216,11 +294,11 @@ pub fn signal_lead(limit_seconds: u64) -> u64 {
     (limit_seconds / 10).clamp(10, 180)
 }
 
-/// The wall time a unit needs at `rate` paths/s per core on `cpus` cores:
-/// twice the estimate plus 10 minutes (for startup, checkpoints and slow
-/// corners of the grid: low suns cost more than the calibration task).
-pub fn unit_seconds(job: &Job, shards: u64, rates: &Rates, cpus: usize) -> f64 {
-    2.0 * task_core_seconds(job, rates) / shards as f64 / cpus as f64 + 600.0
+/// The wall time a unit needs on `cpus` cores: twice the estimate of the
+/// dearest task plus 10 minutes (for startup, checkpoints and slow corners
+/// of a class: visibility and altitude change the cost too).
+pub fn unit_seconds(job: &Job, shards: u64, calibration: &Calibration, cpus: usize) -> f64 {
+    2.0 * calibration.max_task_core_seconds(job) / shards as f64 / cpus as f64 + 600.0
 }
 
 /// A ready sbatch script for an array over every unit of the job (task ×

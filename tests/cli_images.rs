@@ -160,6 +160,39 @@ fn plan_lists_every_task_with_its_cost() {
     );
     assert!(text.contains(&format!(",{},", inside * 16 * 2)), "{inside}: {text}");
     assert!(!text.contains("shared spectral"), "{text}");
+    // Each class of sun elevation is calibrated on its first task, and its
+    // tasks are costed at its rates: the same paths, different hours.
+    let text = plan(
+        "classes.toml",
+        &JOB.replace("elevation_deg = 20.0", "elevation_deg = [-2.0, 5.0, 30.0]")
+            .replace("samples = 16\n", "samples = 400000\n"),
+    );
+    for (class, task) in [
+        ("sun below the horizon (2 tasks): calibrated on task 0", 0),
+        ("sun 0° to 10° (2 tasks): calibrated on task 1", 1),
+        ("sun 10° and higher (2 tasks): calibrated on task 2", 2),
+    ] {
+        assert!(text.contains(class), "{class}: {text}");
+        assert!(text.contains(&format!("\n{task},")), "{text}");
+    }
+    let hours: Vec<f64> = text
+        .lines()
+        .filter(|l| l.chars().next().is_some_and(|c| c.is_ascii_digit()))
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(hours.len(), 6, "{text}");
+    let total: f64 = text
+        .lines()
+        .find(|l| l.starts_with("# total"))
+        .and_then(|l| l.split(", ").nth(1))
+        .and_then(|h| h.split(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    // The total is printed to 0.1 core-hour, each task to 1e-4.
+    assert!((total - hours.iter().sum::<f64>()).abs() <= 0.05 + 6.0 * 5e-5, "{text}");
+    // Tasks 0–2 have visibility 30 km and the three suns, 3–5 60 km.
+    assert!(hours[0] != hours[2] && hours[0] == hours[3], "{text}");
 }
 
 #[test]
