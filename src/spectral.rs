@@ -591,6 +591,19 @@ impl SpectralScene {
     /// term along the sun's direction, Σ_t response_t(λ)·τ_t.
     pub fn direct_horizontal(&self, altitude_km: f64, w: usize) -> f64 {
         let origin = self.geometry.observer_position(altitude_km);
+        let mu0 = self.sun.direction.dot(self.geometry.up(origin));
+        if mu0 <= 0.0 {
+            return 0.0;
+        }
+        mu0 * self.direct_normal(altitude_km, w, true)
+    }
+
+    /// The direct beam at the observer in channel `w`, normal to it: the
+    /// band average of T(λ), times the source at λ with `weighted` and a
+    /// source spectrum (as [`SpectralScene::direct_horizontal`]); 0 for a
+    /// sun below the observer's horizon or behind the planet.
+    pub fn direct_normal(&self, altitude_km: f64, w: usize, weighted: bool) -> f64 {
+        let origin = self.geometry.observer_position(altitude_km);
         let dir = self.sun.direction;
         let mu0 = dir.dot(self.geometry.up(origin));
         if mu0 <= 0.0 {
@@ -620,12 +633,12 @@ impl SpectralScene {
             self.terms.responses_into(lambda, &mut responses);
             let tau: f64 = responses.iter().zip(&columns).map(|(r, c)| r.ext * c).sum();
             let source = match &self.source {
-                Some(solar) => solar.irradiance(lambda).unwrap_or(0.0),
-                None => 1.0,
+                Some(solar) if weighted => solar.irradiance(lambda).unwrap_or(0.0),
+                _ => 1.0,
             };
             sum += (-tau.max(0.0)).exp() * source;
         }
-        mu0 * sum / cells as f64
+        sum / cells as f64
     }
 
     /// The number of channels.

@@ -10,7 +10,9 @@
 //! point sun has no radiance, only an irradiance), then `image_x, image_y`
 //! (pixels from the image's top-left corner) only for an image sensor,
 //! empty where the sun is outside the image (a fisheye of the other
-//! hemisphere, behind a panorama).
+//! hemisphere, behind a panorama). For bands, the band averages of T and
+//! of the direct normal irradiance (in absolute units, of E0(λ)·T(λ)), on
+//! a row named by the band's centre.
 
 use crate::camera::Camera;
 use crate::job::{Job, Task};
@@ -31,9 +33,16 @@ pub fn sun_csv(job: &Job, task: &Task, camera: Option<&Camera>) -> String {
     }
     s.push('\n');
     let position = camera.map(|c| c.point_of(task.sun.direction));
+    let bands = if job.banded() { job.spectral_scene(task) } else { None };
+    let h = task.observer_altitude_km;
     for (w, &lambda) in job.wavelengths_nm.iter().enumerate() {
-        let t = job.scene_for(task, w).direct_transmittance(task.observer_altitude_km);
-        let e = t * job.unit_scale(lambda);
+        let (t, e) = match &bands {
+            Some(scene) => (scene.direct_normal(h, w, false), scene.direct_normal(h, w, true)),
+            None => {
+                let t = job.scene_for(task, w).direct_transmittance(h);
+                (t, t * job.unit_scale(lambda))
+            }
+        };
         s.push_str(&format!("{lambda},{},{t:.9e},{e:.9e}", task.sun.zenith_deg));
         if disc {
             // A uniform disc of solid angle 2π(1 − cos r).

@@ -323,3 +323,55 @@ fn band_fluxes_average_the_fluxes_over_the_band() {
         cmp.assert_no_outlier("band fluxes vs quadrature of single wavelengths")
     );
 }
+
+#[test]
+fn band_sun_tables_average_the_direct_beam_over_the_band() {
+    // sun.csv of a band job against the mean of the single-wavelength
+    // direct beam over 400 wavelengths across each band (midpoints): the
+    // transmittance, and the direct normal irradiance in both units. The
+    // bands hold ozone's Huggins structure (320–360 nm) and the Chappuis
+    // band (600–640 nm).
+    for units in ["normalized", "absolute"] {
+        let base = format!(
+            "[atmosphere]\nozone = \"bogumil\"\naerosol = \"continental_average\"\n[sun]\nelevation_deg = 12.0\n\
+             [observer]\naltitude_km = 0.5\n[output]\nunits = \"{units}\"\nsun = true\n"
+        );
+        let banded = job(&format!(
+            "{base}[spectrum]\nwavelengths_nm = [340.0, 620.0]\nband_width_nm = 40.0\n"
+        ));
+        let table = atmosim::sun_table::sun_csv(&banded, &banded.tasks[0], None);
+        let rows: Vec<Vec<f64>> = table
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 2, "{table}");
+        for (row, centre) in rows.iter().zip([340.0, 620.0]) {
+            assert_eq!(row[0], centre);
+            let nodes: Vec<f64> = (0..400)
+                .map(|k| centre - 20.0 + 40.0 * (k as f64 + 0.5) / 400.0)
+                .collect();
+            let list = nodes.iter().map(|l| format!("{l}")).collect::<Vec<_>>().join(", ");
+            let mono = job(&format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n"));
+            let h = mono.observer_altitude_km;
+            let t: Vec<f64> = (0..nodes.len())
+                .map(|w| mono.scene(w).direct_transmittance(h))
+                .collect();
+            let mean_t = t.iter().sum::<f64>() / t.len() as f64;
+            let mean_e = t.iter().zip(&nodes).map(|(t, &l)| t * mono.unit_scale(l)).sum::<f64>() / t.len() as f64;
+            assert!(
+                (row[2] / mean_t - 1.0).abs() < 2e-4,
+                "{units} {centre}: T {} vs {mean_t}",
+                row[2]
+            );
+            assert!(
+                (row[3] / mean_e - 1.0).abs() < 2e-4,
+                "{units} {centre}: E {} vs {mean_e}",
+                row[3]
+            );
+            if units == "normalized" {
+                assert_eq!(row[2], row[3]);
+            }
+        }
+    }
+}

@@ -332,15 +332,11 @@ impl Job {
             ));
         }
         let r = &self.render;
-        let conflicts: [(&str, bool, &str); 2] = [
-            ("render.shared_wavelengths", !r.shared_wavelengths, "false"),
-            ("output.sun", r.output_sun, "true"),
-        ];
-        if let Some((key, _, value)) = conflicts.iter().find(|c| c.1) {
+        if !r.shared_wavelengths {
             return Err(ctx.invalid(
-                key,
-                value,
-                &format!("{why}; band-averaged {key} is not available"),
+                "render.shared_wavelengths",
+                "false",
+                &format!("{why}; bands without shared paths are not available"),
                 "leave it out (the default with bands)",
             ));
         }
