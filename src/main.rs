@@ -288,15 +288,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             overwrite,
         } => {
             let job = Job::from_file(&job)?;
-            if job.banded() {
-                anyhow::bail!(atmosim::Error::InvalidValue {
-                    file: job.file.clone(),
-                    key: "spectrum.band_width_nm".into(),
-                    value: format!("{:?}", job.band_widths_nm),
-                    reason: "transmittance tables are per wavelength; band-averaged tables are not available".into(),
-                    valid: "0 (or leave it out) for `atmosim transmittance`".into(),
-                });
-            }
             let pool = thread_pool(threads)?;
             let destination = Destination::of(&job, out.as_deref());
             let base = destination.dir.clone();
@@ -840,6 +831,11 @@ fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
 }
 
 fn transmittance_table(job: &Job, task: &atmosim::job::Task) -> transmittance::Table {
+    if job.banded()
+        && let Some(scene) = job.spectral_scene(task)
+    {
+        return transmittance::compute_bands(&job.transmittance, &scene, task.observer_altitude_km);
+    }
     let media: Vec<Medium> = (0..job.wavelengths_nm.len())
         .map(|w| Medium::new(&task.atmosphere, w, job.render.medium, job.render.majorant_scale))
         .collect();
@@ -877,6 +873,7 @@ fn transmittance_attributes(job: &Job, task: &atmosim::job::Task, name: &str) ->
         ("altitudes_km".into(), list(&spec.grid.altitudes_km)),
         ("distances_km".into(), list(&spec.grid.distances_km)),
         ("wavelengths_nm".into(), list(&job.wavelengths_nm)),
+        ("band_width_nm".into(), list(&job.band_widths_nm)),
         ("observer_altitude_km".into(), format!("{}", task.observer_altitude_km)),
         (
             "visibility_km".into(),

@@ -609,29 +609,56 @@ impl SpectralScene {
         if mu0 <= 0.0 {
             return 0.0;
         }
-        let levels = &self.levels_km;
+        let columns = match tracking::layer_at(&self.levels_km, altitude_km, mu0) {
+            Some(layer) => match self.term_columns(&Ray { origin, dir, layer }, f64::INFINITY) {
+                Some(c) => c,
+                None => return 0.0,
+            },
+            None => vec![0.0; self.terms.terms.len()],
+        };
+        self.band_average(w, &columns, weighted)
+    }
+
+    /// Each term's amount integrated along `ray` over at most `length` (km),
+    /// or `None` when the ray meets the ground first.
+    pub fn term_columns(&self, ray: &Ray, length: f64) -> Option<Vec<f64>> {
         let terms = &self.terms.terms;
         let mut columns = vec![0.0; terms.len()];
-        if let Some(layer) = tracking::layer_at(levels, altitude_km, mu0) {
-            let ray = Ray { origin, dir, layer };
-            let end = tracking::walk(&self.geometry, levels, &ray, |seg| {
+        let end = tracking::walk(&self.geometry, &self.levels_km, ray, |seg| {
+            let t1 = seg.t1.min(length);
+            if t1 > seg.t0 {
                 for (c, t) in columns.iter_mut().zip(terms) {
-                    *c += t.amount[seg.layer] * (seg.t1 - seg.t0);
+                    *c += t.amount[seg.layer] * (t1 - seg.t0);
                 }
-                ControlFlow::Continue(())
-            });
-            if !matches!(end, WalkEnd::Top { .. }) {
-                return 0.0;
             }
+            if seg.t1 >= length {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        // A ray ending on the ground within a millimetre of `length` (a
+        // point on the ground) reaches it.
+        match end {
+            WalkEnd::Ground { t } if t < length - 1e-6 => None,
+            _ => Some(columns),
         }
+    }
+
+    /// The band average over channel `w` of e^(−Σ_t response_t(λ)·column_t)
+    /// (times the source at λ with `weighted` and a source spectrum), by
+    /// the composite midpoint rule on cells of at most [`DIRECT_CELL_NM`]
+    /// (the ozone data's spacing is 0.1 nm); a monochromatic channel's
+    /// value at its wavelength.
+    pub fn band_average(&self, w: usize, columns: &[f64], weighted: bool) -> f64 {
         let channel = self.channels[w];
         let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
-        let mut responses = vec![Response::default(); terms.len()];
+        let mut responses = vec![Response::default(); self.terms.terms.len()];
         let mut sum = 0.0;
         for k in 0..cells {
             let lambda = channel.wavelength((k as f64 + 0.5) / cells as f64);
             self.terms.responses_into(lambda, &mut responses);
-            let tau: f64 = responses.iter().zip(&columns).map(|(r, c)| r.ext * c).sum();
+            let tau: f64 = responses.iter().zip(columns).map(|(r, c)| r.ext * c).sum();
             let source = match &self.source {
                 Some(solar) if weighted => solar.irradiance(lambda).unwrap_or(0.0),
                 _ => 1.0,
@@ -639,6 +666,38 @@ impl SpectralScene {
             sum += (-tau.max(0.0)).exp() * source;
         }
         sum / cells as f64
+    }
+
+    /// The extinction responses of every term at the midpoints of channel
+    /// `w`'s cells (`[cell·terms + term]`), for [`SpectralScene::band_average_of`].
+    pub fn band_cells(&self, w: usize) -> Vec<f64> {
+        let channel = self.channels[w];
+        let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
+        let mut responses = vec![Response::default(); self.terms.terms.len()];
+        let mut out = Vec::with_capacity(cells * responses.len());
+        for k in 0..cells {
+            self.terms
+                .responses_into(channel.wavelength((k as f64 + 0.5) / cells as f64), &mut responses);
+            out.extend(responses.iter().map(|r| r.ext));
+        }
+        out
+    }
+
+    /// [`SpectralScene::band_average`] unweighted, from the responses of
+    /// [`SpectralScene::band_cells`] (many columns, one band).
+    pub fn band_average_of(cells: &[f64], columns: &[f64]) -> f64 {
+        let t = columns.len();
+        let n = cells.len() / t.max(1);
+        let sum: f64 = cells
+            .chunks_exact(t.max(1))
+            .map(|r| (-r.iter().zip(columns).map(|(a, c)| a * c).sum::<f64>().max(0.0)).exp())
+            .sum();
+        sum / n.max(1) as f64
+    }
+
+    /// The atmosphere's levels (km).
+    pub fn levels_km(&self) -> &[f64] {
+        &self.levels_km
     }
 
     /// The number of channels.

@@ -25,6 +25,11 @@
 //!
 //! A point whose line of sight passes below the ground is blocked (T = 0);
 //! the observer's own point has T = 1.
+//!
+//! Bands (`compute_bands`): the band average of T(λ), exact for the layered
+//! medium bands use: one column per extinction term along the line of
+//! sight, then the mean over the band's cells of e^(−Σ response·column)
+//! (`SpectralScene::band_average`).
 
 use std::ops::ControlFlow;
 
@@ -34,6 +39,7 @@ use rayon::prelude::*;
 use crate::medium::Medium;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
+use crate::spectral::SpectralScene;
 use crate::tracking::{self, Ray};
 
 /// The sky model's maximum distance to the edge of the atmosphere (km).
@@ -327,6 +333,49 @@ pub fn compute(
         for w in 0..nw {
             table.t[w].push(t[w]);
             table.se[w].push(se[w]);
+        }
+        table.blocked.push(b);
+    }
+    table
+}
+
+/// The band-averaged table of one task (see the module docs): `scene`'s
+/// channels and terms, from an observer at `observer_km`; no standard
+/// errors (exact).
+pub fn compute_bands(spec: &TransmittanceSpec, scene: &SpectralScene, observer_km: f64) -> Table {
+    let geometry = scene.geometry;
+    let levels = scene.levels_km();
+    let n_d = spec.grid.distances_km.len();
+    let nw = scene.channel_count();
+    let cells: Vec<Vec<f64>> = (0..nw).map(|w| scene.band_cells(w)).collect();
+    let points: Vec<(Vec<f64>, bool)> = (0..spec.grid.len())
+        .into_par_iter()
+        .map(|k| {
+            let (a, d) = (spec.grid.altitudes_km[k / n_d], spec.grid.distances_km[k % n_d]);
+            match line_of_sight(&geometry, levels, observer_km, a, d) {
+                Sight::AtObserver => (vec![1.0; nw], false),
+                Sight::Blocked => (vec![0.0; nw], true),
+                Sight::Clear { ray, length_km } => match scene.term_columns(&ray, length_km) {
+                    Some(columns) => (
+                        cells
+                            .iter()
+                            .map(|c| SpectralScene::band_average_of(c, &columns))
+                            .collect(),
+                        false,
+                    ),
+                    None => (vec![0.0; nw], true),
+                },
+            }
+        })
+        .collect();
+    let mut table = Table {
+        t: vec![Vec::with_capacity(points.len()); nw],
+        se: vec![vec![0.0; points.len()]; nw],
+        blocked: Vec::with_capacity(points.len()),
+    };
+    for (t, b) in points {
+        for (column, v) in table.t.iter_mut().zip(t) {
+            column.push(v);
         }
         table.blocked.push(b);
     }

@@ -567,6 +567,7 @@ impl Job {
             raw.transmittance,
             top_km,
             (geometry == GeometryKind::Spherical).then_some(radius_km),
+            band_widths_nm.iter().any(|&w| w > 0.0),
         )?;
 
         let job = Job {

@@ -20,6 +20,7 @@ pub(super) fn resolve(
     raw: Option<RawTransmittance>,
     top_km: f64,
     radius_km: Option<f64>,
+    banded: bool,
 ) -> Result<TransmittanceSpec> {
     let raw = raw.unwrap_or_default();
     let nodes = |key: &str, v: Option<i64>, default: usize| -> Result<usize> {
@@ -88,10 +89,25 @@ pub(super) fn resolve(
     }
     Ok(TransmittanceSpec {
         grid,
-        estimator: match raw.estimator.unwrap_or(RawEstimator::RatioTracking) {
-            RawEstimator::RatioTracking => Estimator::RatioTracking,
-            RawEstimator::ResidualRatioTracking => Estimator::ResidualRatioTracking,
-            RawEstimator::Analytic => Estimator::Analytic,
+        estimator: match (raw.estimator, banded) {
+            // Bands average T over each band exactly (they use the
+            // layered medium, where the optical depth is a sum).
+            (None | Some(RawEstimator::Analytic), true) => Estimator::Analytic,
+            (Some(other), true) => {
+                let name = match other {
+                    RawEstimator::RatioTracking => "ratio_tracking",
+                    _ => "residual_ratio_tracking",
+                };
+                return Err(ctx.invalid(
+                    "transmittance.estimator",
+                    format!("\"{name}\""),
+                    "spectrum.band_width_nm > 0: bands average the transmittance over each band exactly",
+                    "\"analytic\" (the default with bands)",
+                ));
+            }
+            (None | Some(RawEstimator::RatioTracking), false) => Estimator::RatioTracking,
+            (Some(RawEstimator::ResidualRatioTracking), false) => Estimator::ResidualRatioTracking,
+            (Some(RawEstimator::Analytic), false) => Estimator::Analytic,
         },
         samples,
         export_sqrt: raw.export_sqrt.unwrap_or(false),
