@@ -24,6 +24,7 @@ pub mod constants;
 pub mod data;
 pub mod error;
 pub mod film;
+pub mod flight_density;
 pub mod input;
 pub mod integrator;
 pub mod job;

@@ -65,6 +65,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::flight_density::FlightDensity;
 use crate::integrator::{
     INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, Settings, cosine_hemisphere, phase_mixture,
     pick_component, quarter_turn, reference_albedo, reflects, scattering_frame,
@@ -191,14 +192,11 @@ struct Path {
     forced: Vec<f64>,
     mixtures: Vec<PhaseMixture>,
     matrices: Vec<PhaseMatrix>,
-    /// Sun-aware connections along a flight: its segments, and per
-    /// segment and channel what the density needs ([`FlightTerms`]).
+    /// Sun-aware connections along a flight: its segments, the basis
+    /// depths along it at each one's start, and the density.
     segments: Vec<Segment>,
-    terms: Vec<FlightTerms>,
-    /// Per segment, the basis depths along the flight at its start.
     segment_tau: Vec<f64>,
-    /// The flight's pieces for the sun-aware density.
-    pieces: Vec<Piece>,
+    density: FlightDensity,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -222,77 +220,10 @@ impl Depths {
     }
 }
 
-/// One segment of a flight for one channel, as the sun-aware density
-/// sees it (see [`SpectralScene::sun_along_flight`]).
-#[derive(Default, Clone, Copy)]
-struct FlightTerms {
-    /// Optical depth along the flight at the segment's start, and over it.
-    tau0: f64,
-    tau_seg: f64,
-    /// Approximate depth toward the sun at the segment's ends.
-    sun0: f64,
-    sun1: f64,
-    /// σ_s·P11 at the sun's centre.
-    c: f64,
-    /// ∫ of the unnormalised sun-following and flight densities over the
-    /// segment.
-    sun_integral: f64,
-    flight_integral: f64,
-}
-
-/// A run of a flight's segments over which the sun-aware density is one
-/// exponential piece (see [`SpectralScene::sun_along_flight`]).
-#[derive(Debug, Default, Clone, Copy)]
-struct Piece {
-    /// Its segments, `first..end`, and its span along the flight.
-    first: usize,
-    end: usize,
-    t0: f64,
-    t1: f64,
-    /// The layer of its last segment (its end lies on a level of it).
-    end_layer: usize,
-    /// Per followed channel: the depth along the flight at its start, its
-    /// own depth, and its length-weighted mean σ_s·P11 at the sun's centre.
-    tau0: [f64; 2],
-    tau: [f64; 2],
-    c: [f64; 2],
-}
-
-impl Piece {
-    fn start(first: usize, t0: f64) -> Piece {
-        Piece {
-            first,
-            t0,
-            ..Piece::default()
-        }
-    }
-
-    /// The piece ending with segment `end − 1` (`last`), from its sums per
-    /// followed channel of σ_s·P11·length and of optical depth.
-    fn close(mut self, end: usize, last: Segment, sums: &[(f64, f64); 2], tau0: &[f64; 2], k: usize) -> Piece {
-        self.end = end;
-        self.t1 = last.t1;
-        self.end_layer = last.layer;
-        let len = self.t1 - self.t0;
-        for i in 0..k {
-            self.tau0[i] = tau0[i];
-            self.tau[i] = sums[i].1;
-            self.c[i] = if len > 0.0 { sums[i].0 / len } else { 0.0 };
-        }
-        self
-    }
-}
-
-/// The most segments, and the most optical depth of the most extinct
-/// followed channel, in one piece of a sun-aware density (chosen by
-/// measurement: README, "Sun connections along shared paths").
+/// The most segments in one piece of a sun-aware density along shared
+/// paths, where building it costs per segment and followed channel
+/// (chosen by measurement: README, "Sun connections along shared paths").
 const PIECE_SEGMENTS: usize = 4;
-const PIECE_DEPTH: f64 = 0.3;
-
-/// The optical depth summed so far in a piece for followed channel `k`.
-fn acc_depth(sums: &[(f64, f64); 2], k: usize) -> f64 {
-    sums[k].1
-}
 
 /// What sun-aware connections along shared paths draw their point from:
 /// the densities of the channels of the least and the largest column
@@ -1117,10 +1048,8 @@ impl SpectralScene {
     /// [`SunFollow`]), each q_k the defensive mixture of the
     /// single-wavelength tracer, α·q_sun,k + (1 − α)·q_flight,k with
     /// q_sun,k ∝ c̄·e^(−τ_k)·e^(−τ̃_sun,k) and q_flight,k ∝ c̄·e^(−τ_k),
-    /// c̄ the mean σ_s·P11 at the sun's centre: one exponential piece per
-    /// run of up to [`PIECE_SEGMENTS`] segments ([`Piece`]), both exponents
-    /// linear in t from their exact values at the piece's ends (α = 0.8 in
-    /// either geometry: the linear depths are approximate). Channel w scores
+    /// c̄ the mean σ_s·P11 at the sun's centre, piecewise exponential over
+    /// runs of the flight's segments ([`FlightDensity`]; α = 0.8). Channel w scores
     /// e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased for its
     /// single-scattering integral along the flight whatever the hero, since
     /// q > 0 wherever σ_s > 0. Following the least extinct channel bounds
@@ -1158,16 +1087,59 @@ impl SpectralScene {
         if path.segments.iter().any(|seg| !seg.t1.is_finite()) {
             return false;
         }
-        let segs = path.segments.len();
-        if segs == 0 {
+        if path.segments.is_empty() {
             return true;
         }
         let s0 = self.sun.direction;
         let k_out = -ray.dir;
         let cos0 = (-s0).dot(k_out);
-        // Coarse pieces: linear interpolation of the depths across layers is
-        // only approximate, so the defensive share applies in either geometry.
-        let share = SUN_AWARE_SHARE;
+        // Rayleigh's and the aerosol's P11 at the sun's centre per followed
+        // channel, recomputed only when the parameters change.
+        let mut rayleigh = [(f64::NAN, 0.0); 2];
+        let mut aerosol = [(f64::NAN, 0.0); 2];
+        // The basis depths along the flight at each segment's start (every
+        // channel's depth to the point, below).
+        let mut tau_basis = [0.0f64; 16];
+        debug_assert!(b < tau_basis.len());
+        let Path {
+            segments,
+            segment_tau,
+            density,
+            ..
+        } = path;
+        segment_tau.clear();
+        let optics = |_: usize, seg: &Segment| {
+            let len = seg.t1 - seg.t0;
+            segment_tau.extend_from_slice(&tau_basis[..b]);
+            self.accumulate(&mut tau_basis[..b], seg.layer, len);
+            let mut o = [(0.0, 0.0); 2];
+            for (k, ok) in o.iter_mut().enumerate().take(nk) {
+                let c = follow.coefficients[seg.layer * nk + k];
+                if rayleigh[k].0 != c.rayleigh_depolarization {
+                    let depolarization = c.rayleigh_depolarization;
+                    rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
+                }
+                let mut sca = c.sigma_rayleigh * rayleigh[k].1;
+                if c.sigma_aerosol_sca > 0.0 {
+                    if aerosol[k].0 != c.aerosol_g {
+                        let g = c.aerosol_g;
+                        aerosol[k] = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
+                    }
+                    sca += c.sigma_aerosol_sca * aerosol[k].1;
+                }
+                *ok = (c.sigma_t * len, sca);
+            }
+            o
+        };
+        if !density.build(ray, segments, nk, PIECE_SEGMENTS, optics, depth, s0) {
+            return true;
+        }
+        let Some(point) = density.sample(segments, SUN_AWARE_SHARE, sampler) else {
+            return true;
+        };
+        let (i, t_point, q) = (point.segment, point.t, point.pdf);
+        let seg = path.segments[i];
+        let x = ray.origin + t_point * ray.dir;
         let weights = &spectra.weights;
         let channel_sum = |w: usize, v: &[f64]| -> f64 {
             weights[w * b..(w + 1) * b]
@@ -1177,187 +1149,6 @@ impl SpectralScene {
                 .sum::<f64>()
                 .max(0.0)
         };
-        // Rayleigh's and the aerosol's P11 at the sun's centre per followed
-        // channel, recomputed only when the parameters change.
-        let mut rayleigh = [(f64::NAN, 0.0); 2];
-        let mut aerosol = [(f64::NAN, 0.0); 2];
-        // Pass 1, per segment: the basis depths along the flight at its
-        // start (every channel's depth to the point, later), and the
-        // pieces: runs of segments of at most PIECE_SEGMENTS and, for the
-        // most extinct followed channel, PIECE_DEPTH optical depth.
-        let mut tau_basis = [0.0f64; 16];
-        debug_assert!(b < tau_basis.len());
-        path.segment_tau.clear();
-        path.pieces.clear();
-        path.terms.clear();
-        let mut piece = Piece::start(0, path.segments[0].t0);
-        let mut acc = [(0.0f64, 0.0f64); 2];
-        let mut tau_k = [0.0f64; 2];
-        for (i, seg) in path.segments.iter().enumerate() {
-            let len = seg.t1 - seg.t0;
-            path.segment_tau.extend_from_slice(&tau_basis[..b]);
-            self.accumulate(&mut tau_basis[..b], seg.layer, len);
-            let mut tau_seg = [0.0f64; 2];
-            let mut sca = [0.0f64; 2];
-            for k in 0..nk {
-                let c = follow.coefficients[seg.layer * nk + k];
-                if rayleigh[k].0 != c.rayleigh_depolarization {
-                    let depolarization = c.rayleigh_depolarization;
-                    rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
-                }
-                sca[k] = c.sigma_rayleigh * rayleigh[k].1;
-                if c.sigma_aerosol_sca > 0.0 {
-                    if aerosol[k].0 != c.aerosol_g {
-                        let g = c.aerosol_g;
-                        aerosol[k] = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
-                    }
-                    sca[k] += c.sigma_aerosol_sca * aerosol[k].1;
-                }
-                tau_seg[k] = c.sigma_t * len;
-            }
-            let most = nk - 1;
-            if i > piece.first
-                && (i - piece.first >= PIECE_SEGMENTS || acc_depth(&acc, most) + tau_seg[most] > PIECE_DEPTH)
-            {
-                path.pieces.push(piece.close(i, path.segments[i - 1], &acc, &tau_k, nk));
-                for k in 0..nk {
-                    tau_k[k] += acc[k].1;
-                }
-                piece = Piece::start(i, seg.t0);
-                acc = [(0.0, 0.0); 2];
-            }
-            for k in 0..nk {
-                acc[k].0 += sca[k] * len;
-                acc[k].1 += tau_seg[k];
-            }
-        }
-        let last = path.segments[segs - 1];
-        path.pieces.push(piece.close(segs, last, &acc, &tau_k, nk));
-        // Pass 2, per piece and followed channel: depths toward the sun at
-        // the piece's ends (linear in t between), and the integrals of both
-        // densities, c̄·e^(−τ)·[e^(−τ̃)] with both exponents linear in t
-        // inside the piece, from one exponential per piece boundary.
-        let np = path.pieces.len();
-        path.terms.resize(np * nk, FlightTerms::default());
-        let mut sun_k = [0.0f64; 3];
-        let sun_of = |k: usize, v: &[f64]| (v[k] + 60.0 * v[nk]).min(60.0);
-        let first = path.segments[0];
-        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, s0, first.layer, &mut sun_k[..=nk]);
-        for k in 0..nk {
-            path.terms[k].sun0 = sun_of(k, &sun_k);
-        }
-        for (j, p) in path.pieces.iter().enumerate() {
-            depth.at_end_in_layer_into(ray.origin + p.t1 * ray.dir, s0, p.end_layer, &mut sun_k[..=nk]);
-            for k in 0..nk {
-                let sun1 = sun_of(k, &sun_k);
-                let t = &mut path.terms[j * nk + k];
-                t.tau0 = p.tau0[k];
-                t.tau_seg = p.tau[k];
-                t.c = p.c[k];
-                t.sun1 = sun1;
-                if j + 1 < np {
-                    path.terms[(j + 1) * nk + k].sun0 = sun1;
-                }
-            }
-        }
-        let integral = |c: f64, len: f64, w0: f64, w1: f64, de: f64| {
-            c * len
-                * if de.abs() < 1e-7 {
-                    0.5 * (w0 + w1)
-                } else {
-                    (w0 - w1) / de
-                }
-        };
-        // (sun total, flight total, usable) per followed channel.
-        let mut totals = [(0.0, 0.0, false); 2];
-        for (k, total) in totals.iter_mut().enumerate().take(nk) {
-            let at = |j: usize| &path.terms[j * nk + k];
-            let e_min = (0..np)
-                .map(|j| {
-                    let t = at(j);
-                    (t.tau0 + t.sun0).min(t.tau0 + t.tau_seg + t.sun1)
-                })
-                .fold(f64::INFINITY, f64::min);
-            let (mut sun_total, mut flight_total) = (0.0, 0.0);
-            let mut w_sun = (-(at(0).tau0 + at(0).sun0 - e_min)).exp();
-            let mut w_flight = (-at(0).tau0).exp();
-            for j in 0..np {
-                let len = path.pieces[j].t1 - path.pieces[j].t0;
-                let t = &mut path.terms[j * nk + k];
-                let w_sun1 = (-(t.tau0 + t.tau_seg + t.sun1 - e_min)).exp();
-                let w_flight1 = (-(t.tau0 + t.tau_seg)).exp();
-                t.sun_integral = integral(t.c, len, w_sun, w_sun1, t.tau_seg + t.sun1 - t.sun0);
-                t.flight_integral = integral(t.c, len, w_flight, w_flight1, t.tau_seg);
-                (w_sun, w_flight) = (w_sun1, w_flight1);
-                sun_total += t.sun_integral;
-                flight_total += t.flight_integral;
-            }
-            let usable = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
-            *total = (sun_total, flight_total, usable);
-        }
-        let usable: Vec<usize> = (0..nk).filter(|&k| totals[k].2).collect();
-        if usable.is_empty() {
-            return true;
-        }
-        // A followed channel, a density, a piece by its integral, a point.
-        let k = usable[((sampler.next_f64() * usable.len() as f64) as usize).min(usable.len() - 1)];
-        let from_sun = sampler.next_f64() < share;
-        let weight_of = |t: &FlightTerms| if from_sun { t.sun_integral } else { t.flight_integral };
-        let mut target = sampler.next_f64() * if from_sun { totals[k].0 } else { totals[k].1 };
-        let j = (0..np)
-            .find(|&j| {
-                let wj = weight_of(&path.terms[j * nk + k]);
-                target -= wj;
-                target < 0.0 && wj > 0.0
-            })
-            .unwrap_or_else(|| {
-                (0..np)
-                    .rev()
-                    .find(|&j| weight_of(&path.terms[j * nk + k]) > 0.0)
-                    .unwrap_or(0)
-            });
-        let tk = path.terms[j * nk + k];
-        let de = if from_sun {
-            tk.tau_seg + tk.sun1 - tk.sun0
-        } else {
-            tk.tau_seg
-        };
-        let v = sampler.next_f64();
-        let u = if de.abs() < 1e-9 {
-            v
-        } else {
-            -(-v * (-(-de).exp_m1())).ln_1p() / de
-        };
-        let p = path.pieces[j];
-        let piece_len = p.t1 - p.t0;
-        let t_point = p.t0 + u * piece_len;
-        // The segment holding the point.
-        let i = (p.first..p.end)
-            .find(|&i| t_point <= path.segments[i].t1)
-            .unwrap_or(p.end - 1);
-        let seg = path.segments[i];
-        let x = ray.origin + t_point * ray.dir;
-        // The density the point was drawn from, per unit length: for each
-        // followed channel and part, the chance of the piece (its integral
-        // over the total) times the density of u inside it.
-        let inside = |de: f64| {
-            if de.abs() < 1e-9 {
-                1.0
-            } else {
-                de * (-de * u).exp() / -(-de).exp_m1()
-            }
-        };
-        let mut q = 0.0;
-        for &k in &usable {
-            let t = &path.terms[j * nk + k];
-            let (sun_total, flight_total, _) = totals[k];
-            q += share * t.sun_integral / sun_total * inside(t.tau_seg + t.sun1 - t.sun0)
-                + (1.0 - share) * t.flight_integral / flight_total * inside(t.tau_seg);
-        }
-        q /= usable.len() as f64 * piece_len;
-        if q.is_nan() || q <= 0.0 {
-            return true;
-        }
         // Every channel's depth along the flight to the point.
         tau_basis[..b].copy_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
         self.accumulate(&mut tau_basis[..b], seg.layer, (t_point - seg.t0).max(0.0));

@@ -222,6 +222,15 @@ impl SunDepth {
         SunDepth::combine(&[1.0], &out)
     }
 
+    /// Profile `k`'s approximate depth from a lookup `values` (each
+    /// profile's depth, then the blocked fraction): τ_k + 60·blocked, at
+    /// most 60.
+    #[inline]
+    pub fn profile_depth(values: &[f64], k: usize) -> f64 {
+        let p = values.len() - 1;
+        (values[k].max(0.0) + BLOCKED_DEPTH * values[p]).min(BLOCKED_DEPTH)
+    }
+
     /// A channel's approximate depth from a lookup `values` (each
     /// profile's depth, then the blocked fraction) and the channel's
     /// `weights` on the profiles: Σ w·τ + 60·blocked, at most 60 (the depth

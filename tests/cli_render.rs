@@ -199,14 +199,29 @@ fn band_channels_render_and_are_recorded() {
     let meta = std::fs::read_to_string(dir.path().join("out/task.toml")).unwrap();
     assert!(meta.contains("band_width_nm = [40.0, 40.0]"), "{meta}");
     assert!(meta.contains("wavelengths_nm = [340.0, 380.0]"), "{meta}");
+    // Band-averaged transmittance tables (exact: the analytic estimator);
+    // a Monte Carlo estimator is refused, naming the key, before anything
+    // is written.
     let t = atmosim()
         .current_dir(dir.path())
-        .args(["transmittance", "job.toml", "--out", "tr"])
+        .args(["transmittance", "job.toml", "--out", "tr", "-q"])
+        .output()
+        .unwrap();
+    assert!(t.status.success(), "{}", String::from_utf8_lossy(&t.stderr));
+    let table = std::fs::read_to_string(dir.path().join("tr/transmittance.csv")).unwrap();
+    for band in ["340,", "380,"] {
+        assert!(table.lines().any(|l| l.starts_with(band)), "{table}");
+    }
+    let mc = job.replace("[render]", "[transmittance]\nestimator = \"ratio_tracking\"\n[render]");
+    std::fs::write(dir.path().join("mc.toml"), mc).unwrap();
+    let t = atmosim()
+        .current_dir(dir.path())
+        .args(["transmittance", "mc.toml", "--out", "tr_mc"])
         .output()
         .unwrap();
     assert_eq!(t.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&t.stderr).contains("spectrum.band_width_nm"));
-    assert!(!dir.path().join("tr").exists());
+    assert!(String::from_utf8_lossy(&t.stderr).contains("transmittance.estimator"));
+    assert!(!dir.path().join("tr_mc").exists());
 }
 
 /// The radiance.csv and fluxes.csv of `job` rendered into `out` under `dir`.
