@@ -197,6 +197,8 @@ struct Path {
     segments: Vec<Segment>,
     segment_tau: Vec<f64>,
     density: FlightDensity,
+    /// Per channel, the weight of a sun-aware point.
+    factors: Vec<f64>,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -806,7 +808,8 @@ impl SpectralScene {
                     let k_out = -ray.dir;
                     path.order += 1;
                     if !sun_done {
-                        self.sun_from_scattering(path, spectra, x, layer, k_out, sampler);
+                        // At the collision, with every channel's phase mixture there.
+                        self.sun_from(path, spectra, x, layer, k_out, sampler, false);
                     }
                     if self.order_done(path.order) {
                         return;
@@ -1152,29 +1155,17 @@ impl SpectralScene {
         // Every channel's depth along the flight to the point.
         tau_basis[..b].copy_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
         self.accumulate(&mut tau_basis[..b], seg.layer, (t_point - seg.t0).max(0.0));
-        // One shadow ray for every channel.
-        let s = self.sun.sample_direction(sampler.next2());
-        if !self.sun_depths(path, spectra, x, s, seg.layer) {
-            return true;
-        }
-        let k_in = -s;
-        let cos = k_in.dot(k_out);
-        let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
+        // Every channel's phase mixture at the point and its weight
+        // e^(−τ_w)·σ_s,w/q; then one shadow ray for every channel.
+        path.mixtures.clear();
+        path.factors.clear();
         for w in 0..self.channels.len() {
-            let tr = (-path.shadow.tau[w]).exp();
-            if tr <= 0.0 {
-                continue;
-            }
             let c = self.coefficients(spectra, seg.layer, w);
-            let m = phase_mixture(&c).matrix(cos);
-            let column = if self.settings.polarized {
-                rotation.column_of(&path.throughput[w], &m)
-            } else {
-                path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
-            };
-            let f = (-channel_sum(w, &tau_basis[..b])).exp() / q * c.sigma_s() * tr * INV_4PI;
-            path.add(w, column * f);
+            path.mixtures.push(phase_mixture(&c));
+            path.factors
+                .push((-channel_sum(w, &tau_basis[..b])).exp() / q * c.sigma_s());
         }
+        self.sun_from(path, spectra, x, seg.layer, k_out, sampler, true);
         true
     }
 
@@ -1185,7 +1176,11 @@ impl SpectralScene {
         matches!(end, Some(WalkEnd::Top { .. }))
     }
 
-    fn sun_from_scattering(
+    /// One shadow ray toward the sun from a scattering at `x` for every
+    /// channel, each with its phase mixture in `path.mixtures` and, when
+    /// `weighted`, times `path.factors[w]`.
+    #[allow(clippy::too_many_arguments)]
+    fn sun_from(
         &self,
         path: &mut Path,
         spectra: &ChannelSpectra,
@@ -1193,6 +1188,7 @@ impl SpectralScene {
         layer: usize,
         k_out: DVec3,
         sampler: &mut Sampler,
+        weighted: bool,
     ) {
         let s = self.sun.sample_direction(sampler.next2());
         if !self.sun_depths(path, spectra, x, s, layer) {
@@ -1212,7 +1208,8 @@ impl SpectralScene {
             } else {
                 path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
             };
-            path.add(w, column * (tr * INV_4PI));
+            let factor = if weighted { path.factors[w] } else { 1.0 };
+            path.add(w, column * (factor * tr * INV_4PI));
         }
     }
 
