@@ -584,48 +584,49 @@ impl SpectralScene {
     /// (the ozone data's spacing is 0.1 nm); a monochromatic channel's
     /// value at its wavelength.
     pub fn band_average(&self, w: usize, columns: &[f64], weighted: bool) -> f64 {
+        let source = self.source.as_ref().filter(|_| weighted).map(|solar| {
+            self.cell_wavelengths(w)
+                .map(|lambda| solar.irradiance(lambda).unwrap_or(0.0))
+                .collect::<Vec<f64>>()
+        });
+        SpectralScene::band_average_of(&self.band_cells(w), columns, source.as_deref())
+    }
+
+    /// The midpoints of channel `w`'s cells (its wavelength alone for a
+    /// monochromatic channel).
+    fn cell_wavelengths(&self, w: usize) -> impl Iterator<Item = f64> {
         let channel = self.channels[w];
         let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
-        let mut responses = vec![Response::default(); self.terms.terms.len()];
-        let mut sum = 0.0;
-        for k in 0..cells {
-            let lambda = channel.wavelength((k as f64 + 0.5) / cells as f64);
-            self.terms.responses_into(lambda, &mut responses);
-            let tau: f64 = responses.iter().zip(columns).map(|(r, c)| r.ext * c).sum();
-            let source = match &self.source {
-                Some(solar) if weighted => solar.irradiance(lambda).unwrap_or(0.0),
-                _ => 1.0,
-            };
-            sum += (-tau.max(0.0)).exp() * source;
-        }
-        sum / cells as f64
+        (0..cells).map(move |k| channel.wavelength((k as f64 + 0.5) / cells as f64))
     }
 
     /// The extinction responses of every term at the midpoints of channel
     /// `w`'s cells (`[cell·terms + term]`), for [`SpectralScene::band_average_of`].
     pub fn band_cells(&self, w: usize) -> Vec<f64> {
-        let channel = self.channels[w];
-        let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
         let mut responses = vec![Response::default(); self.terms.terms.len()];
-        let mut out = Vec::with_capacity(cells * responses.len());
-        for k in 0..cells {
-            self.terms
-                .responses_into(channel.wavelength((k as f64 + 0.5) / cells as f64), &mut responses);
+        let mut out = Vec::new();
+        for lambda in self.cell_wavelengths(w) {
+            self.terms.responses_into(lambda, &mut responses);
             out.extend(responses.iter().map(|r| r.ext));
         }
         out
     }
 
-    /// [`SpectralScene::band_average`] unweighted, from the responses of
-    /// [`SpectralScene::band_cells`] (many columns, one band).
-    pub fn band_average_of(cells: &[f64], columns: &[f64]) -> f64 {
-        let t = columns.len();
-        let n = cells.len() / t.max(1);
+    /// The mean over a band's cells (responses from
+    /// [`SpectralScene::band_cells`]) of e^(−Σ response·column), each cell
+    /// times its `source` value when given.
+    pub fn band_average_of(cells: &[f64], columns: &[f64], source: Option<&[f64]>) -> f64 {
+        let t = columns.len().max(1);
+        let n = (cells.len() / t).max(1);
         let sum: f64 = cells
-            .chunks_exact(t.max(1))
-            .map(|r| (-r.iter().zip(columns).map(|(a, c)| a * c).sum::<f64>().max(0.0)).exp())
+            .chunks_exact(t)
+            .enumerate()
+            .map(|(k, r)| {
+                let tau = r.iter().zip(columns).map(|(a, c)| a * c).sum::<f64>().max(0.0);
+                (-tau).exp() * source.map_or(1.0, |s| s[k])
+            })
             .sum();
-        sum / n.max(1) as f64
+        sum / n as f64
     }
 
     /// The atmosphere's levels (km).

@@ -359,7 +359,7 @@ pub fn compute_bands(spec: &TransmittanceSpec, scene: &SpectralScene, observer_k
                     Some(columns) => (
                         cells
                             .iter()
-                            .map(|c| SpectralScene::band_average_of(c, &columns))
+                            .map(|c| SpectralScene::band_average_of(c, &columns, None))
                             .collect(),
                         false,
                     ),

@@ -89,25 +89,26 @@ pub(super) fn resolve(
     }
     Ok(TransmittanceSpec {
         grid,
-        estimator: match (raw.estimator, banded) {
-            // Bands average T over each band exactly (they use the
-            // layered medium, where the optical depth is a sum).
-            (None | Some(RawEstimator::Analytic), true) => Estimator::Analytic,
-            (Some(other), true) => {
-                let name = match other {
-                    RawEstimator::RatioTracking => "ratio_tracking",
-                    _ => "residual_ratio_tracking",
-                };
-                return Err(ctx.invalid(
-                    "transmittance.estimator",
-                    format!("\"{name}\""),
-                    "spectrum.band_width_nm > 0: bands average the transmittance over each band exactly",
-                    "\"analytic\" (the default with bands)",
-                ));
+        estimator: {
+            let asked = raw.estimator.map(|e| match e {
+                RawEstimator::RatioTracking => Estimator::RatioTracking,
+                RawEstimator::ResidualRatioTracking => Estimator::ResidualRatioTracking,
+                RawEstimator::Analytic => Estimator::Analytic,
+            });
+            match (asked, banded) {
+                // Bands average T over each band exactly (they use the
+                // layered medium, where the optical depth is a sum).
+                (None | Some(Estimator::Analytic), true) => Estimator::Analytic,
+                (Some(other), true) => {
+                    return Err(ctx.invalid(
+                        "transmittance.estimator",
+                        format!("\"{}\"", other.name()),
+                        "spectrum.band_width_nm > 0: bands average the transmittance over each band exactly",
+                        "\"analytic\" (the default with bands)",
+                    ));
+                }
+                (asked, false) => asked.unwrap_or(Estimator::RatioTracking),
             }
-            (None | Some(RawEstimator::RatioTracking), false) => Estimator::RatioTracking,
-            (Some(RawEstimator::ResidualRatioTracking), false) => Estimator::ResidualRatioTracking,
-            (Some(RawEstimator::Analytic), false) => Estimator::Analytic,
         },
         samples,
         export_sqrt: raw.export_sqrt.unwrap_or(false),
