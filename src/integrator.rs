@@ -590,20 +590,9 @@ impl Scene {
     }
 
     /// The geometry and ray along which the direct beam toward `ray.origin`
-    /// is attenuated: the ray itself, or in pseudo-spherical geometry the
-    /// same direction from the point at the same altitude above the top of
-    /// a sphere (where the local vertical is +z, as in the slab).
+    /// is attenuated ([`sun_ray`]).
     pub fn sun_ray(&self, ray: Ray) -> (Geometry, Ray) {
-        match (self.pseudo_spherical_radius_km, self.geometry) {
-            (Some(radius_km), Geometry::PlaneParallel) => (
-                Geometry::Spherical { radius_km },
-                Ray {
-                    origin: DVec3::new(0.0, 0.0, radius_km + ray.origin.z),
-                    ..ray
-                },
-            ),
-            _ => (self.geometry, ray),
-        }
+        sun_ray(self.geometry, self.pseudo_spherical_radius_km, ray)
     }
 
     /// Transmittance of the direct beam from the top of the atmosphere to
@@ -643,6 +632,24 @@ impl Scene {
 
     fn order_done(&self, order: u32) -> bool {
         self.settings.order_done(order)
+    }
+}
+
+/// The geometry and ray along which the direct beam toward `ray.origin`
+/// is attenuated: the ray itself, or in pseudo-spherical geometry (a
+/// plane-parallel `geometry` with a planet radius) the same direction from
+/// the point at the same altitude above the top of a sphere (where the
+/// local vertical is +z, as in the slab).
+pub(crate) fn sun_ray(geometry: Geometry, pseudo_spherical_radius_km: Option<f64>, ray: Ray) -> (Geometry, Ray) {
+    match (pseudo_spherical_radius_km, geometry) {
+        (Some(radius_km), Geometry::PlaneParallel) => (
+            Geometry::Spherical { radius_km },
+            Ray {
+                origin: DVec3::new(0.0, 0.0, radius_km + ray.origin.z),
+                ..ray
+            },
+        ),
+        _ => (geometry, ray),
     }
 }
 

@@ -234,9 +234,8 @@ impl Medium {
     }
 
     /// Optical depth of the straight segment `origin + t·dir`, t ∈ [t0, t1],
-    /// inside layer `i`: exact for `layered`; for `smooth`, 8-point
-    /// Gauss–Legendre on pieces of at most 0.1 of the layer's thickness in
-    /// altitude change (relative error below 1e-10 for AFGL layers).
+    /// inside layer `i`: exact for `layered`; for `smooth`, the layer's
+    /// coefficients times [`shape_integrals`].
     pub fn segment_optical_depth(
         &self,
         geometry: &Geometry,
@@ -246,26 +245,49 @@ impl Medium {
         t0: f64,
         t1: f64,
     ) -> f64 {
-        if self.shapes.is_none() {
+        let Some(shapes) = &self.shapes else {
             return self.sigma_t_layer[i] * (t1 - t0);
-        }
-        let dz = self.levels_km[i + 1] - self.levels_km[i];
-        let z0 = geometry.altitude(origin + t0 * dir);
-        let z1 = geometry.altitude(origin + t1 * dir);
-        // Altitude is not monotonic along a limb chord; split finely enough.
-        let pieces =
-            (((z1 - z0).abs() / (0.1 * dz)).ceil() as usize).clamp(1, 64) * if (t1 - t0) > 4.0 * dz { 4 } else { 1 };
-        let h = (t1 - t0) / pieces as f64;
-        let mut tau = 0.0;
-        for k in 0..pieces {
-            let a = t0 + k as f64 * h;
-            for (x, w) in GAUSS_8 {
-                let z = geometry.altitude(origin + (a + x * h) * dir);
-                tau += w * h * self.at(i, z).sigma_t;
-            }
-        }
-        tau
+        };
+        let o = &self.layers[i];
+        let layer = (self.levels_km[i], self.levels_km[i + 1]);
+        let [air, ozone, length] = shape_integrals(&shapes[i], layer, geometry, origin, dir, t0, t1);
+        o.sigma_rayleigh * air + o.sigma_absorption * ozone + o.sigma_aerosol_ext * length
     }
+}
+
+/// The integrals of a smooth layer's shape factors along the straight
+/// segment `origin + t·dir`, t ∈ [t0, t1], inside the layer between the
+/// altitudes `layer` (km): [∫ air factor, ∫ ozone factor, length] (see
+/// [`LayerShape`]). 8-point Gauss–Legendre on pieces of at most 0.1 of
+/// the layer's thickness in altitude change (relative error below 1e-10
+/// for AFGL layers).
+pub fn shape_integrals(
+    shape: &LayerShape,
+    layer: (f64, f64),
+    geometry: &Geometry,
+    origin: DVec3,
+    dir: DVec3,
+    t0: f64,
+    t1: f64,
+) -> [f64; 3] {
+    let dz = layer.1 - layer.0;
+    let z0 = geometry.altitude(origin + t0 * dir);
+    let z1 = geometry.altitude(origin + t1 * dir);
+    // Altitude is not monotonic along a limb chord; split finely enough.
+    let pieces =
+        (((z1 - z0).abs() / (0.1 * dz)).ceil() as usize).clamp(1, 64) * if (t1 - t0) > 4.0 * dz { 4 } else { 1 };
+    let h = (t1 - t0) / pieces as f64;
+    let (mut air, mut ozone) = (0.0, 0.0);
+    for k in 0..pieces {
+        let a = t0 + k as f64 * h;
+        for (x, w) in GAUSS_8 {
+            let z = geometry.altitude(origin + (a + x * h) * dir);
+            let f = ((z - layer.0) / dz).clamp(0.0, 1.0);
+            air += w * h * shape.rayleigh_factor(f);
+            ozone += w * h * shape.ozone_factor(f);
+        }
+    }
+    [air, ozone, t1 - t0]
 }
 
 /// σ(k − 1) − σ(k) at each level k = 0..=n of n layers, σ zero outside.

@@ -47,9 +47,13 @@
 //!
 //! Optical depths along a ray are computed once per extinction basis
 //! vector (the atmosphere's extinction terms, or the channels' own σ_t
-//! profiles for monochromatic channels when there are fewer channels than
-//! terms) and combined per channel: τ_λ = Σ_b W_λb·τ_b. Requires
-//! piecewise-constant media (the `layered` model) and forced collisions.
+//! profiles for monochromatic channels in the layered medium when there
+//! are fewer channels than terms) and combined per channel:
+//! τ_λ = Σ_b W_λb·τ_b; in closed form through spherical shells of the
+//! layered medium, else segment by segment (in the smooth medium each term
+//! with its shape inside the layer, by quadrature). Free flights are
+//! forced, analog or delta-tracked (`flight`), shadow rays exact or
+//! ratio-tracked against the largest of the channels' majorants.
 //!
 //! Sun connections are made at the collision points, or with sun-aware
 //! connections (`with_sun_aware`) at one point per flight drawn from the
@@ -65,18 +69,19 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::atmosphere::LayerShape;
 use crate::flight_density::FlightDensity;
 use crate::integrator::{
-    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, Settings, cosine_hemisphere, phase_mixture,
-    pick_component, quarter_turn, reference_albedo, reflects, scattering_frame,
+    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, Settings, SunTransmittance, cosine_hemisphere,
+    phase_mixture, pick_component, quarter_turn, reference_albedo, reflects, scattering_frame, sun_ray,
 };
-use crate::medium::{MediumModel, PointCoefficients, density_steps};
+use crate::medium::{PointCoefficients, density_steps, shape_integrals};
 use crate::phase::PhaseFunction;
 use crate::phase::PhaseMixture;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
 use crate::solar::SolarSpectrum;
-use crate::spectral_terms::{Response, SpectralTerms};
+use crate::spectral_terms::{Response, SpectralTerms, TermShape};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
@@ -147,6 +152,30 @@ pub struct SpectralScene {
     /// Sun-aware connections along every flight (`None`: connections at
     /// collisions).
     sun_follow: Option<SunFollow>,
+    /// The smooth medium's shape of each layer (`None`: layered, σ constant
+    /// in each layer).
+    shapes: Option<Vec<LayerShape>>,
+    /// How each term, and each basis vector, varies inside a smooth layer.
+    term_shapes: Vec<TermShape>,
+    basis_shapes: Vec<TermShape>,
+    /// Majorants are this times a bound on σ_t over each layer (1 and the
+    /// layered medium: σ_t itself, every tentative collision real).
+    majorant_scale: f64,
+    /// Pseudo-spherical geometry: shadow rays toward the sun through
+    /// spherical shells of this radius (km) (see `integrator::Scene`).
+    pseudo_spherical_radius_km: Option<f64>,
+}
+
+/// How the medium between a scene's levels is modelled and tracked.
+#[derive(Debug, Clone, Default)]
+pub struct MediumSettings {
+    /// The smooth medium's shape of each layer (`None`: layered).
+    pub shapes: Option<Vec<LayerShape>>,
+    /// Majorants over a bound on σ_t (≥ 1).
+    pub majorant_scale: f64,
+    /// Pseudo-spherical geometry's planet radius (km), in a plane-parallel
+    /// scene.
+    pub pseudo_spherical_radius_km: Option<f64>,
 }
 
 /// One sample's radiances: `values[λ·albedos + albedo]`.
@@ -197,8 +226,13 @@ struct Path {
     segments: Vec<Segment>,
     segment_tau: Vec<f64>,
     density: FlightDensity,
-    /// Per channel, the weight of a sun-aware point.
+    /// Per channel, the weight of a point connected to the sun off the
+    /// collision (sun-aware or stratified), and the transmittance of the
+    /// last shadow ray.
     factors: Vec<f64>,
+    shadow_tr: Vec<f64>,
+    /// Scratch: basis depths to a point.
+    point_basis: Vec<f64>,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -268,7 +302,7 @@ impl Path {
         self.radiance.clear();
         self.radiance.resize(n * albedos, Stokes::zero());
         self.albedos = albedos;
-        for v in [&mut self.tau_hit, &mut self.forced] {
+        for v in [&mut self.tau_hit, &mut self.forced, &mut self.shadow_tr] {
             v.resize(n, 0.0);
         }
         self.ray.reset(n, levels, basis);
@@ -338,6 +372,7 @@ enum Outcome {
 
 impl SpectralScene {
     /// A scene of `channels` over an atmosphere's levels and terms.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         geometry: Geometry,
         levels_km: Vec<f64>,
@@ -346,6 +381,7 @@ impl SpectralScene {
         sun: Sun,
         albedos: Vec<f64>,
         settings: Settings,
+        medium: MediumSettings,
     ) -> SpectralScene {
         let layers = levels_km.len() - 1;
         let n = channels.len();
@@ -356,7 +392,8 @@ impl SpectralScene {
             terms.responses_into(c.lambda_nm, &mut centre[w * t..(w + 1) * t]);
         }
         let ext_terms: Vec<usize> = (0..t).filter(|&k| terms.terms[k].spectrum.has_extinction()).collect();
-        let basis = if !banded && ext_terms.len() > n {
+        // The channels' own profiles only where σ is constant per layer.
+        let basis = if !banded && ext_terms.len() > n && medium.shapes.is_none() {
             Basis::Channels
         } else {
             Basis::Terms(ext_terms)
@@ -373,6 +410,11 @@ impl SpectralScene {
                 .collect(),
         };
         let b = profiles.len();
+        let term_shapes: Vec<TermShape> = terms.terms.iter().map(|t| t.shape()).collect();
+        let basis_shapes = match &basis {
+            Basis::Terms(k) => k.iter().map(|&k| term_shapes[k]).collect(),
+            Basis::Channels => vec![TermShape::Flat; b],
+        };
         let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
         let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
         let mut scene = SpectralScene {
@@ -390,6 +432,11 @@ impl SpectralScene {
             fixed: None,
             source: None,
             sun_follow: None,
+            shapes: medium.shapes,
+            term_shapes,
+            basis_shapes,
+            majorant_scale: medium.majorant_scale.max(1.0),
+            pseudo_spherical_radius_km: medium.pseudo_spherical_radius_km,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
@@ -454,7 +501,13 @@ impl SpectralScene {
             .iter()
             .map(|f| f.2.iter().map(|c| c.sigma_t).collect())
             .collect();
-        let depth = SunDepth::of_profiles(&self.levels_km, &sigmas, &self.geometry, self.sun.direction, false);
+        let depth = SunDepth::of_profiles(
+            &self.levels_km,
+            &sigmas,
+            &self.geometry,
+            self.sun.direction,
+            self.pseudo_spherical_radius_km.is_some(),
+        );
         let mut coefficients = Vec::with_capacity(layers * k);
         for l in 0..layers {
             coefficients.extend(followed.iter().map(|f| f.2[l]));
@@ -543,7 +596,14 @@ impl SpectralScene {
             return 0.0;
         }
         let columns = match tracking::layer_at(&self.levels_km, altitude_km, mu0) {
-            Some(layer) => match self.term_columns(&Ray { origin, dir, layer }, f64::INFINITY) {
+            Some(layer) => match self.term_columns_in(
+                sun_ray(
+                    self.geometry,
+                    self.pseudo_spherical_radius_km,
+                    Ray { origin, dir, layer },
+                ),
+                f64::INFINITY,
+            ) {
                 Some(c) => c,
                 None => return 0.0,
             },
@@ -555,13 +615,25 @@ impl SpectralScene {
     /// Each term's amount integrated along `ray` over at most `length` (km),
     /// or `None` when the ray meets the ground first.
     pub fn term_columns(&self, ray: &Ray, length: f64) -> Option<Vec<f64>> {
+        self.term_columns_in((self.geometry, *ray), length)
+    }
+
+    /// [`SpectralScene::term_columns`] along a ray of a given geometry.
+    fn term_columns_in(&self, (geometry, ray): (Geometry, Ray), length: f64) -> Option<Vec<f64>> {
         let terms = &self.terms.terms;
         let mut columns = vec![0.0; terms.len()];
-        let end = tracking::walk(&self.geometry, &self.levels_km, ray, |seg| {
+        let end = tracking::walk(&geometry, &self.levels_km, &ray, |seg| {
             let t1 = seg.t1.min(length);
             if t1 > seg.t0 {
-                for (c, t) in columns.iter_mut().zip(terms) {
-                    *c += t.amount[seg.layer] * (t1 - seg.t0);
+                let integrals = match &self.shapes {
+                    None => [t1 - seg.t0; 3],
+                    Some(shapes) => {
+                        let bounds = (self.levels_km[seg.layer], self.levels_km[seg.layer + 1]);
+                        shape_integrals(&shapes[seg.layer], bounds, &geometry, ray.origin, ray.dir, seg.t0, t1)
+                    }
+                };
+                for ((c, t), shape) in columns.iter_mut().zip(terms).zip(&self.term_shapes) {
+                    *c += t.amount[seg.layer] * integrals[shape.index()];
                 }
             }
             if seg.t1 >= length {
@@ -639,13 +711,6 @@ impl SpectralScene {
         self.channels.len()
     }
 
-    /// Whether shared paths can render media of this model: piecewise
-    /// constant (the `layered` model tracked against σ_t itself) with
-    /// forced collisions.
-    pub fn supported(model: MediumModel, majorant_scale: f64, settings: &Settings) -> bool {
-        settings.forced_collisions && model == MediumModel::Layered && majorant_scale == 1.0
-    }
-
     /// σ_t of channel `w` in `layer`.
     #[inline]
     fn sigma_t(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
@@ -681,16 +746,95 @@ impl SpectralScene {
         self.settings.order_done(order)
     }
 
-    /// The coefficients of channel `w` in `layer`.
-    fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> PointCoefficients {
+    /// The coefficients of channel `w` at fraction `f` of `layer` (see
+    /// [`SpectralScene::fraction`]).
+    fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointCoefficients {
         let t = self.terms.terms.len();
-        let mut c = self
-            .terms
-            .layer_sum(layer, &spectra.responses[w * t..(w + 1) * t])
-            .coefficients();
+        let responses = &spectra.responses[w * t..(w + 1) * t];
+        let sum = match &self.shapes {
+            None => self.terms.layer_sum(layer, responses),
+            Some(shapes) => self.terms.point_sum(layer, responses, |k| {
+                self.term_shapes[k].factor(Some(&shapes[layer]), f)
+            }),
+        };
+        let mut c = sum.coefficients();
         // The extinction the flights see (the same sum, on the basis).
-        c.sigma_t = self.sigma_t(spectra, layer, w);
+        c.sigma_t = self.sigma_t_point(spectra, layer, w, f);
         c
+    }
+
+    /// Whether σ_t is constant in each layer and tracked against itself:
+    /// optical depths in closed form, every tentative collision real.
+    fn exact_majorant(&self) -> bool {
+        self.shapes.is_none() && self.majorant_scale == 1.0
+    }
+
+    /// Whether flights that would end without contributing are forced to
+    /// collide ([`Settings::forced_collisions`], with an exact majorant).
+    fn forced(&self) -> bool {
+        self.settings.forced_collisions && self.exact_majorant()
+    }
+
+    /// Where `x` lies in `layer` of `geometry`, 0 at its bottom and 1 at its
+    /// top, for the smooth medium's shapes (0 in the layered medium, where
+    /// nothing depends on it).
+    #[inline]
+    fn fraction(&self, geometry: &Geometry, layer: usize, x: DVec3) -> f64 {
+        if self.shapes.is_none() {
+            return 0.0;
+        }
+        let (z0, z1) = (self.levels_km[layer], self.levels_km[layer + 1]);
+        ((geometry.altitude(x) - z0) / (z1 - z0)).clamp(0.0, 1.0)
+    }
+
+    /// σ_t of channel `w` at fraction `f` of `layer`.
+    #[inline]
+    fn sigma_t_point(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> f64 {
+        let Some(shapes) = &self.shapes else {
+            return self.sigma_t(spectra, layer, w);
+        };
+        let b = self.basis_len;
+        let shape = Some(&shapes[layer]);
+        let weights = &spectra.weights[w * b..(w + 1) * b];
+        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        (0..b)
+            .map(|j| weights[j] * sigma[j] * self.basis_shapes[j].factor(shape, f))
+            .sum::<f64>()
+            .max(0.0)
+    }
+
+    /// The majorant of channel `w` in `layer`: `majorant_scale` times a
+    /// bound on its σ_t over the layer (σ_t itself in the layered medium;
+    /// in the smooth one, each basis vector's largest factor).
+    fn majorant(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
+        let bound = match &self.shapes {
+            None => self.sigma_t(spectra, layer, w),
+            Some(shapes) => {
+                let b = self.basis_len;
+                let shape = Some(&shapes[layer]);
+                let weights = &spectra.weights[w * b..(w + 1) * b];
+                let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+                (0..b)
+                    .map(|j| (weights[j] * sigma[j]).abs() * self.basis_shapes[j].max_factor(shape))
+                    .sum::<f64>()
+            }
+        };
+        self.majorant_scale * bound
+    }
+
+    /// Adds every basis vector's optical depth over [t0, t1] of `ray` (in
+    /// `layer` of `geometry`) to `tau`.
+    fn accumulate_along(&self, tau: &mut [f64], geometry: &Geometry, ray: &Ray, layer: usize, t0: f64, t1: f64) {
+        let Some(shapes) = &self.shapes else {
+            return self.accumulate(tau, layer, t1 - t0);
+        };
+        let bounds = (self.levels_km[layer], self.levels_km[layer + 1]);
+        let integrals = shape_integrals(&shapes[layer], bounds, geometry, ray.origin, ray.dir, t0, t1);
+        let b = tau.len();
+        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        for ((t, s), shape) in tau.iter_mut().zip(sigma).zip(&self.basis_shapes) {
+            *t += s * integrals[shape.index()];
+        }
     }
 
     /// One sample of the diffuse Stokes radiance at every wavelength and
@@ -773,15 +917,24 @@ impl SpectralScene {
         if !self.settings.first_vertex_splitting {
             spare = None;
         }
+        let forced = self.forced();
         loop {
-            let Some(end) = self.exit_depths(&mut path.ray, spectra, &ray) else {
+            let Some(end) = self.exit_depths(&mut path.ray, spectra, &self.geometry, &ray) else {
                 return;
             };
-            // Sun-aware connection along the whole flight, with the
-            // throughput and densities before its collision.
-            let sun_done = !self.order_done(path.order) && self.sun_along_flight(path, spectra, &ray, sampler);
+            // A forced flight toward a reflecting ground is split at the
+            // sensor's first vertex, else analog.
             let to_ground = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
-            let split = to_ground && path.order == 0 && spare.is_some();
+            let split = forced && to_ground && path.order == 0 && spare.is_some();
+            let forced_flight = forced && (split || !to_ground);
+            // Sun connections along the whole flight (sun-aware, or
+            // stratified on a forced flight), with the throughput and
+            // densities before its collision.
+            let sun_done = !self.order_done(path.order)
+                && (self.sun_along_flight(path, spectra, &ray, sampler)
+                    || (forced_flight
+                        && self.settings.sun_samples_per_flight > 1
+                        && self.sun_stratified(path, spectra, &ray, sampler)));
             if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
                 branch.clone_from(path);
                 for (m, tau) in branch.throughput.iter_mut().zip(&path.ray.tau) {
@@ -790,7 +943,7 @@ impl SpectralScene {
                 self.trace_on_from_ground(branch, spectra, ray.origin + t * ray.dir, sampler);
                 std::mem::swap(&mut path.radiance, &mut branch.radiance);
             }
-            match self.flight(path, spectra, &ray, end, to_ground && !split, sampler) {
+            match self.flight(path, spectra, &ray, end, forced_flight, sampler) {
                 Outcome::Escaped => return,
                 Outcome::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
@@ -819,7 +972,8 @@ impl SpectralScene {
                     // uniformly, weighted by the mixture of all wavelengths'
                     // densities.
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-                    let coeffs = self.coefficients(spectra, layer, pick);
+                    let f = self.fraction(&self.geometry, layer, x);
+                    let coeffs = self.coefficients(spectra, layer, pick, f);
                     let component = pick_component(&coeffs, sampler.next_f64());
                     let (k_in, _) = component.sample_direction(k_out, sampler.next2());
                     let cos = k_in.dot(k_out);
@@ -896,15 +1050,17 @@ impl SpectralScene {
     }
 
     /// Every channel's optical depth from the ray's origin to where it
-    /// leaves (top or ground) into `d.tau`, and how it leaves; `None` for
-    /// an endless (horizontal plane-parallel) ray.
-    fn exit_depths(&self, d: &mut Depths, spectra: &ChannelSpectra, ray: &Ray) -> Option<WalkEnd> {
+    /// leaves (top or ground) into `d.tau`, through `geometry`, and how it
+    /// leaves; `None` for an endless (horizontal plane-parallel) ray.
+    fn exit_depths(&self, d: &mut Depths, spectra: &ChannelSpectra, geometry: &Geometry, ray: &Ray) -> Option<WalkEnd> {
         let levels = &self.levels_km;
         let b = self.basis_len;
         let tau = &mut d.tau_basis;
         tau.fill(0.0);
-        let end = match self.geometry {
-            Geometry::Spherical { radius_km } => {
+        let end = match *geometry {
+            // Closed form through concentric shells where σ is constant in
+            // each layer.
+            Geometry::Spherical { radius_km } if self.shapes.is_none() => {
                 let exit = tracking::shell_exit(radius_km, levels, ray);
                 let range = exit.levels();
                 let c = &mut d.chords[..range.len()];
@@ -918,12 +1074,12 @@ impl SpectralScene {
                 d.exit = Some(exit);
                 Some(end)
             }
-            Geometry::PlaneParallel => {
+            _ => {
                 d.exit = None;
                 let mut endless = false;
-                let end = tracking::walk(&self.geometry, levels, ray, |seg| {
+                let end = tracking::walk(geometry, levels, ray, |seg| {
                     if seg.t1.is_finite() {
-                        self.accumulate(tau, seg.layer, seg.t1 - seg.t0);
+                        self.accumulate_along(tau, geometry, ray, seg.layer, seg.t0, seg.t1);
                     } else {
                         endless = true;
                     }
@@ -938,7 +1094,17 @@ impl SpectralScene {
 
     /// Samples the flight's outcome with the path's hero wavelength; every
     /// wavelength's integrand and density go in over the hero's density.
-    /// `path.ray` holds the depths to the flight's `end`. At a
+    /// `path.ray` holds the depths to the flight's `end`.
+    ///
+    /// One free-flight routine: tentative collisions against the hero's
+    /// majorant, each real with probability σ_t/σ_maj (delta tracking; with
+    /// the majorant σ_t itself, every one is real and this is the analog
+    /// free path, drawn by inversion). A `forced` flight (majorant σ_t)
+    /// draws its one tentative collision from the exponential truncated to
+    /// the flight, probability 1 − e^(−τ) per wavelength; otherwise the
+    /// flight may end on the ground or escape. A real collision at x has
+    /// the density σ_t(x)·e^(−τ(x)) at every wavelength (over the forcing
+    /// probability for a forced flight), whatever the majorant. At a
     /// collision, `path.mixtures` gets every channel's phase mixture there.
     fn flight(
         &self,
@@ -946,95 +1112,113 @@ impl SpectralScene {
         spectra: &ChannelSpectra,
         ray: &Ray,
         end: WalkEnd,
-        analog: bool,
+        forced: bool,
         sampler: &mut Sampler,
     ) -> Outcome {
         let n = self.channels.len();
         let hero = path.hero;
-        let u = sampler.next_f64();
-        let target = if analog {
-            let tau = -(1.0 - u).ln();
-            if tau >= path.ray.tau[hero] {
-                // The ground, reached with probability e^(−τ) at every λ.
-                let hero_p = (-path.ray.tau[hero]).exp();
-                for w in 0..n {
-                    let k = (-path.ray.tau[w]).exp() / hero_p;
-                    path.throughput[w] = path.throughput[w] * k;
-                    path.scale_density(w, k);
-                }
-                path.densities_changed();
-                let WalkEnd::Ground { t } = end else {
-                    unreachable!("analog flights end on the ground")
-                };
-                return Outcome::Ground { t };
-            }
-            tau
-        } else {
-            // Forcing probabilities 1 − e^(−τ).
+        let exact = self.exact_majorant();
+        // The hero's majorant depth to the first tentative collision.
+        let mut left = if forced {
             for (p, t) in path.forced.iter_mut().zip(&path.ray.tau) {
                 *p = -(-t).exp_m1();
             }
             if path.forced[hero] <= 0.0 {
                 return Outcome::Escaped;
             }
-            tracking::forced_distance(u, path.forced[hero])
+            tracking::forced_distance(sampler.next_f64(), path.forced[hero])
+        } else {
+            -(1.0 - sampler.next_f64()).ln()
         };
-        // Locate the collision along the hero's optical depth, with every
-        // basis vector's depth to it accumulated on the way.
-        let mut acc = 0.0;
+        // Walk the flight's segments to the first real collision, with
+        // every basis vector's depth to it accumulated on the way.
         let mut hit = None;
         let mut last = None;
-        let tau = &mut path.ray.tau_basis;
+        let geometry = &self.geometry;
+        let Depths {
+            tau_basis: tau,
+            chords,
+            exit,
+            ..
+        } = &mut path.ray;
         tau.fill(0.0);
         let visit = |s: Segment| {
-            let sigma = self.sigma_t(spectra, s.layer, hero);
-            let d = sigma * (s.t1 - s.t0);
-            if sigma > 0.0 && acc + d >= target {
-                let t = (s.t0 + (target - acc) / sigma).min(s.t1);
-                self.accumulate(tau, s.layer, t - s.t0);
-                hit = Some((t, s.layer));
-                return ControlFlow::Break(());
+            let majorant = if exact {
+                self.sigma_t(spectra, s.layer, hero)
+            } else {
+                self.majorant(spectra, s.layer, hero)
+            };
+            let mut t0 = s.t0;
+            loop {
+                let t = t0 + left / majorant;
+                if majorant <= 0.0 || t >= s.t1 {
+                    left -= majorant * (s.t1 - t0);
+                    break;
+                }
+                let real = exact || {
+                    let f = self.fraction(geometry, s.layer, ray.origin + t * ray.dir);
+                    sampler.next_f64() * majorant < self.sigma_t_point(spectra, s.layer, hero, f)
+                };
+                if real {
+                    self.accumulate_along(tau, geometry, ray, s.layer, s.t0, t);
+                    hit = Some((t, s.layer));
+                    return ControlFlow::Break(());
+                }
+                t0 = t;
+                left = -(1.0 - sampler.next_f64()).ln();
             }
-            self.accumulate(tau, s.layer, s.t1 - s.t0);
-            acc += d;
+            self.accumulate_along(tau, geometry, ray, s.layer, s.t0, s.t1);
             last = Some((s.t1, s.layer));
             ControlFlow::Continue(())
         };
         // The segments from the half chords `exit_depths` left (no square
-        // roots), or walked in a slab.
-        match &path.ray.exit {
+        // roots), or walked.
+        match exit {
             Some(exit) => {
-                let _ = exit.try_for_each_segment(&path.ray.chords, visit);
+                let _ = exit.try_for_each_segment(chords, visit);
             }
             None => {
-                tracking::walk(&self.geometry, &self.levels_km, ray, visit);
+                tracking::walk(geometry, &self.levels_km, ray, visit);
             }
         }
-        let Some((t, layer)) = hit.or(last) else {
-            return Outcome::Escaped;
+        // Rounding may leave a forced collision just beyond the end: the end.
+        let hit = if forced { hit.or(last) } else { hit };
+        let Some((t, layer)) = hit else {
+            let WalkEnd::Ground { t } = end else {
+                return Outcome::Escaped;
+            };
+            // The ground, reached with probability e^(−τ) at every λ.
+            let hero_p = (-path.ray.tau[hero]).exp();
+            for w in 0..n {
+                let k = (-path.ray.tau[w]).exp() / hero_p;
+                path.throughput[w] = path.throughput[w] * k;
+                path.scale_density(w, k);
+            }
+            path.densities_changed();
+            return Outcome::Ground { t };
         };
         Self::combine(spectra, &path.ray.tau_basis, &mut path.tau_hit);
-        // The collision's density per wavelength (σ_t·e^(−τ), over the
-        // forcing probability for a forced flight), over the hero's.
-        let density = |sigma_t: f64, transmittance: f64, forced: f64| {
+        // The collision's density per wavelength, over the hero's.
+        let f = self.fraction(geometry, layer, ray.origin + t * ray.dir);
+        let density = |sigma_t: f64, transmittance: f64, p: f64| {
             let q = sigma_t * transmittance;
-            if analog {
+            if !forced {
                 q
-            } else if forced > 0.0 {
-                q / forced
+            } else if p > 0.0 {
+                q / p
             } else {
                 0.0
             }
         };
         let hero_density = density(
-            self.sigma_t(spectra, layer, hero),
+            self.sigma_t_point(spectra, layer, hero, f),
             (-path.tau_hit[hero]).exp(),
             path.forced[hero],
         );
         let inv_hero = 1.0 / hero_density;
         path.mixtures.clear();
         for w in 0..n {
-            let c = self.coefficients(spectra, layer, w);
+            let c = self.coefficients(spectra, layer, w, f);
             path.mixtures.push(phase_mixture(&c));
             let transmittance = (-path.tau_hit[w]).exp();
             let k = density(c.sigma_t, transmittance, path.forced[w]) * inv_hero;
@@ -1043,6 +1227,119 @@ impl SpectralScene {
         }
         path.densities_changed();
         Outcome::Collided { t, layer }
+    }
+
+    /// The current flight's segments into `path.segments`, and every basis
+    /// vector's depth at each one's start into `path.segment_tau`
+    /// (`path.ray` holds its exit; σ constant per layer); false for an
+    /// endless flight.
+    fn flight_segments(&self, path: &mut Path, ray: &Ray) -> bool {
+        let Path {
+            segments,
+            segment_tau,
+            point_basis,
+            ray: depths,
+            ..
+        } = path;
+        segments.clear();
+        segment_tau.clear();
+        point_basis.clear();
+        point_basis.resize(self.basis_len, 0.0);
+        let push = |seg: Segment| {
+            segments.push(seg);
+            segment_tau.extend_from_slice(point_basis);
+            if seg.t1.is_finite() {
+                self.accumulate(point_basis, seg.layer, seg.t1 - seg.t0);
+            }
+            ControlFlow::<()>::Continue(())
+        };
+        match &depths.exit {
+            Some(exit) => {
+                let _ = exit.try_for_each_segment(&depths.chords, push);
+            }
+            None => {
+                tracking::walk(&self.geometry, &self.levels_km, ray, push);
+            }
+        }
+        segments.iter().all(|seg| seg.t1.is_finite())
+    }
+
+    /// A sun connection from the point at distance `t` in segment `i` of
+    /// the flight (`path.segments`), drawn with density `q` (the same for
+    /// every channel, so the path's spectral MIS weight applies to it
+    /// unchanged): channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q.
+    fn sun_at_point(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        (i, t): (usize, f64),
+        q: f64,
+        sampler: &mut Sampler,
+    ) {
+        let b = self.basis_len;
+        let seg = path.segments[i];
+        // Every channel's depth along the flight to the point.
+        path.point_basis.clear();
+        path.point_basis
+            .extend_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
+        self.accumulate(&mut path.point_basis, seg.layer, (t - seg.t0).max(0.0));
+        Self::combine(spectra, &path.point_basis, &mut path.tau_hit);
+        path.mixtures.clear();
+        path.factors.clear();
+        for w in 0..self.channels.len() {
+            let c = self.coefficients(spectra, seg.layer, w, 0.0);
+            path.mixtures.push(phase_mixture(&c));
+            path.factors.push((-path.tau_hit[w]).exp() / q * c.sigma_s());
+        }
+        self.sun_from(
+            path,
+            spectra,
+            ray.origin + t * ray.dir,
+            seg.layer,
+            -ray.dir,
+            sampler,
+            true,
+        );
+    }
+
+    /// Stratified sun connections along a forced flight
+    /// ([`Settings::sun_samples_per_flight`] = K points): point k at the
+    /// hero's forced distance for the variate (k + u_k)/K, connected with
+    /// 1/K of its weight (`sun_at_point`, density K·σ_t,h·e^(−τ_h)/(1 −
+    /// e^(−τ_h,end)) at the point). The path goes on from its own
+    /// collision. Returns false (nothing done) for an endless flight.
+    fn sun_stratified(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray, sampler: &mut Sampler) -> bool {
+        if !self.flight_segments(path, ray) {
+            return false;
+        }
+        let hero = path.hero;
+        let p = -(-path.ray.tau[hero]).exp_m1();
+        if p <= 0.0 {
+            return true;
+        }
+        let k = self.settings.sun_samples_per_flight;
+        for i in 0..k {
+            let target = tracking::forced_distance((i as f64 + sampler.next_f64()) / k as f64, p);
+            let mut acc = 0.0;
+            let mut point = None;
+            for (j, seg) in path.segments.iter().enumerate() {
+                let sigma = self.sigma_t(spectra, seg.layer, hero);
+                let d = sigma * (seg.t1 - seg.t0);
+                if sigma > 0.0 {
+                    point = Some((j, (seg.t0 + (target - acc) / sigma).min(seg.t1), sigma));
+                    if acc + d >= target {
+                        break;
+                    }
+                }
+                acc += d;
+            }
+            if let Some((j, t, sigma)) = point {
+                let q = k as f64 * sigma * (-target).exp() / p;
+                self.sun_at_point(path, spectra, ray, (j, t), q, sampler);
+            }
+        }
+        true
     }
 
     /// Next-event estimation along a whole flight (`path.ray` holds its
@@ -1068,54 +1365,22 @@ impl SpectralScene {
         let Some(follow) = &self.sun_follow else {
             return false;
         };
-        let depth = &follow.depth;
-        let nk = follow.channels.len();
-        let b = self.basis_len;
-        // The flight's segments.
-        path.segments.clear();
-        let segments = &mut path.segments;
-        match &path.ray.exit {
-            Some(exit) => {
-                let _ = exit.try_for_each_segment(&path.ray.chords, |seg| {
-                    segments.push(seg);
-                    ControlFlow::<()>::Continue(())
-                });
-            }
-            None => {
-                tracking::walk(&self.geometry, &self.levels_km, ray, |seg| {
-                    segments.push(seg);
-                    ControlFlow::Continue(())
-                });
-            }
-        }
-        if path.segments.iter().any(|seg| !seg.t1.is_finite()) {
+        if !self.flight_segments(path, ray) {
             return false;
         }
         if path.segments.is_empty() {
             return true;
         }
+        let depth = &follow.depth;
+        let nk = follow.channels.len();
         let s0 = self.sun.direction;
-        let k_out = -ray.dir;
-        let cos0 = (-s0).dot(k_out);
+        let cos0 = (-s0).dot(-ray.dir);
         // Rayleigh's and the aerosol's P11 at the sun's centre per followed
         // channel, recomputed only when the parameters change.
         let mut rayleigh = [(f64::NAN, 0.0); 2];
         let mut aerosol = [(f64::NAN, 0.0); 2];
-        // The basis depths along the flight at each segment's start (every
-        // channel's depth to the point, below).
-        let mut tau_basis = [0.0f64; 16];
-        debug_assert!(b < tau_basis.len());
-        let Path {
-            segments,
-            segment_tau,
-            density,
-            ..
-        } = path;
-        segment_tau.clear();
         let optics = |_: usize, seg: &Segment| {
             let len = seg.t1 - seg.t0;
-            segment_tau.extend_from_slice(&tau_basis[..b]);
-            self.accumulate(&mut tau_basis[..b], seg.layer, len);
             let mut o = [(0.0, 0.0); 2];
             for (k, ok) in o.iter_mut().enumerate().take(nk) {
                 let c = follow.coefficients[seg.layer * nk + k];
@@ -1135,46 +1400,79 @@ impl SpectralScene {
             }
             o
         };
-        if !density.build(ray, segments, nk, PIECE_SEGMENTS, optics, depth, s0) {
+        if !path
+            .density
+            .build(ray, &path.segments, nk, PIECE_SEGMENTS, optics, depth, s0)
+        {
             return true;
         }
-        let Some(point) = density.sample(segments, SUN_AWARE_SHARE, sampler) else {
+        let Some(point) = path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler) else {
             return true;
         };
-        let (i, t_point, q) = (point.segment, point.t, point.pdf);
-        let seg = path.segments[i];
-        let x = ray.origin + t_point * ray.dir;
-        let weights = &spectra.weights;
-        let channel_sum = |w: usize, v: &[f64]| -> f64 {
-            weights[w * b..(w + 1) * b]
-                .iter()
-                .zip(v)
-                .map(|(a, x)| a * x)
-                .sum::<f64>()
-                .max(0.0)
-        };
-        // Every channel's depth along the flight to the point.
-        tau_basis[..b].copy_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
-        self.accumulate(&mut tau_basis[..b], seg.layer, (t_point - seg.t0).max(0.0));
-        // Every channel's phase mixture at the point and its weight
-        // e^(−τ_w)·σ_s,w/q; then one shadow ray for every channel.
-        path.mixtures.clear();
-        path.factors.clear();
-        for w in 0..self.channels.len() {
-            let c = self.coefficients(spectra, seg.layer, w);
-            path.mixtures.push(phase_mixture(&c));
-            path.factors
-                .push((-channel_sum(w, &tau_basis[..b])).exp() / q * c.sigma_s());
-        }
-        self.sun_from(path, spectra, x, seg.layer, k_out, sampler, true);
+        self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
         true
     }
 
-    /// Every channel's optical depth toward the sun from `x` into
-    /// `path.shadow`; false when the shadow ray hits the planet.
-    fn sun_depths(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, dir: DVec3, layer: usize) -> bool {
-        let end = self.exit_depths(&mut path.shadow, spectra, &Ray { origin: x, dir, layer });
-        matches!(end, Some(WalkEnd::Top { .. }))
+    /// Every channel's transmittance toward the sun from `x` (in `layer`)
+    /// into `path.shadow_tr`, along the direct beam's path (`sun_ray`):
+    /// exact, or ratio-tracked against the largest of the channels'
+    /// majorants ([`SunTransmittance`]); false when the shadow ray hits the
+    /// planet or carries nothing.
+    fn sun_transmittances(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        x: DVec3,
+        dir: DVec3,
+        layer: usize,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let (geometry, ray) = sun_ray(
+            self.geometry,
+            self.pseudo_spherical_radius_km,
+            Ray { origin: x, dir, layer },
+        );
+        match self.settings.sun_transmittance {
+            SunTransmittance::Analytic => {
+                let end = self.exit_depths(&mut path.shadow, spectra, &geometry, &ray);
+                for (tr, tau) in path.shadow_tr.iter_mut().zip(&path.shadow.tau) {
+                    *tr = (-tau).exp();
+                }
+                matches!(end, Some(WalkEnd::Top { .. }))
+            }
+            SunTransmittance::RatioTracking => {
+                let n = self.channels.len();
+                let tr = &mut path.shadow_tr;
+                tr.fill(1.0);
+                let mut left = -(1.0 - sampler.next_f64()).ln();
+                let mut alive = true;
+                let end = tracking::walk(&geometry, &self.levels_km, &ray, |seg| {
+                    let majorant = (0..n).map(|w| self.majorant(spectra, seg.layer, w)).fold(0.0, f64::max);
+                    if majorant <= 0.0 {
+                        return ControlFlow::Continue(());
+                    }
+                    alive = seg.t1.is_finite();
+                    let mut t0 = seg.t0;
+                    while alive {
+                        let t = t0 + left / majorant;
+                        if t >= seg.t1 {
+                            left -= majorant * (seg.t1 - t0);
+                            return ControlFlow::Continue(());
+                        }
+                        let f = self.fraction(&geometry, seg.layer, ray.origin + t * ray.dir);
+                        alive = false;
+                        for (w, tr) in tr.iter_mut().enumerate() {
+                            *tr *= 1.0 - self.sigma_t_point(spectra, seg.layer, w, f) / majorant;
+                            alive |= *tr != 0.0;
+                        }
+                        t0 = t;
+                        left = -(1.0 - sampler.next_f64()).ln();
+                    }
+                    ControlFlow::Break(())
+                });
+                alive && matches!(end, WalkEnd::Top { .. })
+            }
+        }
     }
 
     /// One shadow ray toward the sun from a scattering at `x` for every
@@ -1192,15 +1490,15 @@ impl SpectralScene {
         weighted: bool,
     ) {
         let s = self.sun.sample_direction(sampler.next2());
-        if !self.sun_depths(path, spectra, x, s, layer) {
+        if !self.sun_transmittances(path, spectra, x, s, layer, sampler) {
             return;
         }
         let k_in = -s;
         let cos = k_in.dot(k_out);
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
         for w in 0..self.channels.len() {
-            let tr = (-path.shadow.tau[w]).exp();
-            if tr <= 0.0 {
+            let tr = path.shadow_tr[w];
+            if tr == 0.0 {
                 continue;
             }
             let m = path.mixtures[w].matrix(cos);
@@ -1234,9 +1532,9 @@ impl SpectralScene {
         let up = self.geometry.up(x);
         let s = self.sun.sample_direction(sampler.next2());
         let mu_s = s.dot(up);
-        if mu_s > 0.0 && self.sun_depths(path, spectra, x, s, 0) {
+        if mu_s > 0.0 && self.sun_transmittances(path, spectra, x, s, 0, sampler) {
             for w in 0..self.channels.len() {
-                let f = FRAC_1_PI * mu_s * (-path.shadow.tau[w]).exp();
+                let f = FRAC_1_PI * mu_s * path.shadow_tr[w];
                 let m = &path.throughput[w].0;
                 let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
                 path.add(w, column * f);

@@ -19,6 +19,7 @@
 use std::sync::Arc;
 
 use crate::aerosol::Component;
+use crate::atmosphere::LayerShape;
 use crate::medium::PointCoefficients;
 use crate::ozone::CrossSection;
 use crate::rayleigh;
@@ -147,6 +148,58 @@ pub struct Term {
     pub spectrum: Spectrum,
 }
 
+/// How a term's amount varies inside a layer of the smooth medium
+/// (closed set; see `medium` and [`crate::atmosphere::LayerShape`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TermShape {
+    /// Constant (aerosols, explicit layers).
+    Flat,
+    /// As the air density (Rayleigh).
+    Air,
+    /// As the ozone density (ozone absorption).
+    Ozone,
+}
+
+impl TermShape {
+    /// The index of this shape's factor in [`crate::medium::shape_integrals`].
+    pub fn index(self) -> usize {
+        match self {
+            TermShape::Air => 0,
+            TermShape::Ozone => 1,
+            TermShape::Flat => 2,
+        }
+    }
+
+    /// The factor at fraction `f` of a layer of `shape` (1 without one).
+    pub fn factor(self, shape: Option<&LayerShape>, f: f64) -> f64 {
+        match (self, shape) {
+            (TermShape::Air, Some(s)) => s.rayleigh_factor(f),
+            (TermShape::Ozone, Some(s)) => s.ozone_factor(f),
+            _ => 1.0,
+        }
+    }
+
+    /// The largest factor over a layer of `shape`.
+    pub fn max_factor(self, shape: Option<&LayerShape>) -> f64 {
+        match (self, shape) {
+            (TermShape::Air, Some(s)) => s.max_factors().0,
+            (TermShape::Ozone, Some(s)) => s.max_factors().1,
+            _ => 1.0,
+        }
+    }
+}
+
+impl Term {
+    /// How the term varies inside a smooth layer.
+    pub fn shape(&self) -> TermShape {
+        match self.spectrum {
+            Spectrum::Air { .. } => TermShape::Air,
+            Spectrum::Ozone { .. } => TermShape::Ozone,
+            Spectrum::Constant(_) | Spectrum::Aerosol { .. } => TermShape::Flat,
+        }
+    }
+}
+
 /// An atmosphere's layer optics as terms (see the module docs).
 #[derive(Debug, Clone, Default)]
 pub struct SpectralTerms {
@@ -175,11 +228,17 @@ impl SpectralTerms {
 
     /// The summed responses of `layer` for one channel's `responses`.
     pub fn layer_sum(&self, layer: usize, responses: &[Response]) -> Response {
+        self.point_sum(layer, responses, |_| 1.0)
+    }
+
+    /// The summed responses at a point of `layer`, each term's amount times
+    /// `factor(term index)` (its shape factor there).
+    pub fn point_sum(&self, layer: usize, responses: &[Response], factor: impl Fn(usize) -> f64) -> Response {
         let mut sum = Response::default();
-        for (t, r) in self.terms.iter().zip(responses) {
+        for (k, (t, r)) in self.terms.iter().zip(responses).enumerate() {
             let a = t.amount[layer];
             if a != 0.0 {
-                sum.add_scaled(r, a);
+                sum.add_scaled(r, a * factor(k));
             }
         }
         sum

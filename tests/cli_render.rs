@@ -157,8 +157,8 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "230",
         ),
         (
-            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[render]\nforced_collisions = false\n",
-            "render.forced_collisions",
+            "[spectrum]\nwavelengths_nm = [550.0]\nband_width_nm = 40.0\n[render]\nshared_wavelengths = false\n",
+            "render.shared_wavelengths",
             "band_width_nm",
         ),
         // Absolute units need the Kurucz irradiance (250–10000 nm) over

@@ -42,9 +42,14 @@ fn pseudo_spherical_direct_beam_is_the_spherical_one() {
         // At 80° the spherical air mass is smaller: more direct light.
         assert!(t_ps > t_pp * 1.01, "{z}: {t_ps} vs {t_pp}");
     }
-    // Shared spectral paths have no pseudo-spherical beam: not used.
-    let two = text("pseudo_spherical").replace("[540.0]", "[540.0, 600.0]");
-    assert!(job(&two).spectral_scene(&job(&two).tasks[0]).is_none());
+    // Shared spectral paths see the same pseudo-spherical beam.
+    let two = job(&text("pseudo_spherical").replace("[540.0]", "[540.0, 600.0]"));
+    let shared = two.spectral_scene(&two.tasks[0]).expect("shared paths");
+    for z in [0.0, 3.7, 10.0] {
+        let t_ps = ps.scene(0).direct_transmittance(z);
+        let t_shared = shared.direct_normal(z, 0, false);
+        assert!((t_shared / t_ps - 1.0).abs() < 1e-12, "{z}: {t_shared} vs {t_ps}");
+    }
 }
 
 #[test]

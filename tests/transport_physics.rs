@@ -220,30 +220,67 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
             20_000,
         ),
     ] {
-        let wavelengths = [320.0, 400.0, 500.0, 600.0, 760.0];
-        let text = format!(
-            "{base}[spectrum]\nwavelengths_nm = [320.0, 400.0, 500.0, 600.0, 760.0]\n[ground]\nalbedo = [0.0, 0.5]\n"
-        );
-        let j = job(&text);
-        let spectral = j.spectral_scene(&j.tasks[0]).expect("shared paths apply");
-        let analog = if text.contains("[render]\n") {
-            text.replace("[render]\n", "[render]\nfirst_vertex_splitting = false\n")
-        } else {
-            format!("{text}[render]\nfirst_vertex_splitting = false\n")
-        };
-        let analog = job(&analog);
-        let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]);
-        let h = j.observer_altitude_km;
-        let shared = atmosim::render::render_directions_spectral(&spectral, h, &dirs, samples, 1, 0);
-        let mut cmp = Comparison::default();
-        for (w, lambda) in wavelengths.iter().enumerate() {
-            let alone = atmosim::render::render_directions_all(&analog.scene(w), h, &dirs, samples, 50 + w as u64, 0);
-            for a in 0..2 {
-                cmp.add_tallies(&format!("{lambda} nm albedo {a}"), &shared[w][a], &alone[a]);
-            }
-        }
-        cmp.assert_no_outlier("shared spectral paths vs single wavelengths");
+        shared_paths_against_single_wavelengths(base, &[320.0, 400.0, 500.0, 600.0, 760.0], samples);
     }
+}
+
+/// Renders `base` at `wavelengths` (albedos 0 and 0.5, four directions)
+/// along shared paths and each wavelength alone with an analog first
+/// vertex (independent streams), and asserts no outlier.
+fn shared_paths_against_single_wavelengths(base: &str, wavelengths: &[f64], samples: u64) {
+    let list = wavelengths
+        .iter()
+        .map(|l| format!("{l:.1}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let text = format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n[ground]\nalbedo = [0.0, 0.5]\n");
+    let j = job(&text);
+    let spectral = j.spectral_scene(&j.tasks[0]).expect("shared paths apply");
+    let analog = if text.contains("[render]\n") {
+        text.replace("[render]\n", "[render]\nfirst_vertex_splitting = false\n")
+    } else {
+        format!("{text}[render]\nfirst_vertex_splitting = false\n")
+    };
+    let analog = job(&analog);
+    let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]);
+    let h = j.observer_altitude_km;
+    let shared = atmosim::render::render_directions_spectral(&spectral, h, &dirs, samples, 1, 0);
+    let mut cmp = Comparison::default();
+    for (w, lambda) in wavelengths.iter().enumerate() {
+        let alone = atmosim::render::render_directions_all(&analog.scene(w), h, &dirs, samples, 50 + w as u64, 0);
+        for a in 0..2 {
+            cmp.add_tallies(&format!("{lambda} nm albedo {a}"), &shared[w][a], &alone[a]);
+        }
+    }
+    cmp.assert_no_outlier(&format!("shared spectral paths vs single wavelengths: {base}"));
+}
+
+#[test]
+fn shared_paths_equal_single_wavelength_renders_for_every_transport_option() {
+    // Every option of the transport along shared paths, against the same
+    // option for each wavelength alone (the smooth medium's delta
+    // tracking, inflated majorants, ratio-tracked shadow rays, analog
+    // flights, stratified sun samples, pseudo-spherical geometry, a
+    // scattering order cap, no polarisation).
+    let aerosol = "[atmosphere]\naerosol = \"continental_average\"\n[observer]\naltitude_km = 0.5\n";
+    for (options, sun) in [
+        ("medium = \"smooth\"\n", 30.0),
+        (
+            "medium = \"smooth\"\nmajorant_scale = 1.5\nsun_transmittance = \"ratio_tracking\"\n",
+            30.0,
+        ),
+        ("majorant_scale = 2.0\n", 30.0),
+        ("sun_transmittance = \"ratio_tracking\"\n", 30.0),
+        ("forced_collisions = false\n", 30.0),
+        ("sun_samples_per_flight = 3\nsun_sampling = \"collision\"\n", 5.0),
+        ("max_scattering_order = 2\npolarized = false\n", 30.0),
+    ] {
+        let base = format!("{aerosol}[sun]\nelevation_deg = {sun}\n[render]\n{options}");
+        shared_paths_against_single_wavelengths(&base, &[320.0, 500.0, 760.0], 10_000);
+    }
+    let pseudo = "[planet]\ngeometry = \"pseudo_spherical\"\n[sun]\nelevation_deg = 4.0\n\
+                  [atmosphere]\naerosol = \"continental_average\"\n[observer]\naltitude_km = 0.5\n";
+    shared_paths_against_single_wavelengths(pseudo, &[320.0, 500.0, 760.0], 10_000);
 }
 
 #[test]

@@ -17,7 +17,7 @@ use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
 use crate::solar::SolarSpectrum;
-use crate::spectral::{Channel, SpectralScene};
+use crate::spectral::{Channel, MediumSettings, SpectralScene};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
@@ -216,49 +216,41 @@ impl Job {
             .collect()
     }
 
-    /// Why shared spectral paths cannot render this job's tasks (the
-    /// offending key and value); `None` when they can.
-    fn shared_paths_blocked(&self) -> Option<(&'static str, String)> {
-        let r = &self.render;
-        if !SpectralScene::supported(r.medium, r.majorant_scale, &r.settings) {
-            return Some(if !r.settings.forced_collisions {
-                ("render.forced_collisions", "false".into())
-            } else if r.medium != MediumModel::Layered {
-                ("render.medium", "\"smooth\"".into())
-            } else {
-                ("render.majorant_scale", r.majorant_scale.to_string())
-            });
-        }
-        if self.pseudo_spherical_radius_km().is_some() {
-            return Some(("planet.geometry", "\"pseudo_spherical\"".into()));
-        }
-        None
-    }
-
     /// The shared-spectral-path scene of a task: all channels at once, when
     /// the job has bands, or more than one wavelength with
-    /// `render.shared_wavelengths` on, and the media allow it (see
-    /// `spectral`); `None` otherwise. Sun-aware connections as for one
-    /// wavelength (`render.sun_sampling`).
+    /// `render.shared_wavelengths` on (see `spectral`); `None` otherwise.
+    /// Sun-aware connections as for one wavelength (`render.sun_sampling`).
     pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
-        let plane_parallel = self.plane_parallel_transport();
-        let sun_aware = self
-            .render
-            .settings
-            .sun_sampling
-            .is_sun_aware(task.sun.zenith_deg, plane_parallel);
         let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1);
-        if !wanted || self.shared_paths_blocked().is_some() {
+        if !wanted {
             return None;
         }
+        let r = &self.render;
+        let medium = MediumSettings {
+            shapes: match r.medium {
+                MediumModel::Layered => None,
+                MediumModel::Smooth => task.atmosphere.layer_shapes.clone(),
+            },
+            majorant_scale: r.majorant_scale,
+            pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
+        };
+        // Sun-aware connections need σ constant per layer and forced flights.
+        let sun_aware = r
+            .settings
+            .sun_sampling
+            .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport())
+            && r.settings.forced_collisions
+            && medium.shapes.is_none()
+            && r.majorant_scale == 1.0;
         let scene = SpectralScene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
             task.atmosphere.terms.clone(),
             self.channels(),
             task.sun,
-            self.render.albedos.clone(),
-            self.render.settings,
+            r.albedos.clone(),
+            r.settings,
+            medium,
         );
         let scene = if sun_aware { scene.with_sun_aware() } else { scene };
         Some(match &self.solar {
@@ -321,16 +313,6 @@ impl Job {
             return Ok(());
         }
         let why = "spectrum.band_width_nm > 0 renders bands along shared spectral paths";
-        if let Some((key, value)) = self.shared_paths_blocked() {
-            return Err(ctx.invalid(
-                key,
-                value,
-                &format!(
-                    "{why}, which need the layered medium, forced collisions and spherical or plane-parallel geometry"
-                ),
-                "the default, or spectrum.band_width_nm = 0",
-            ));
-        }
         let r = &self.render;
         if !r.shared_wavelengths {
             return Err(ctx.invalid(
