@@ -115,6 +115,13 @@ struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
     source: Vec<f64>,
+    /// Each channel's σ_t per layer (`[channel·layers + layer]`; the layer
+    /// mean in the smooth medium).
+    sigma: Vec<f64>,
+    /// Each channel's coefficients per layer, likewise, where they are the
+    /// same at every point of a layer and shared by every path (empty
+    /// otherwise).
+    coefficients: Vec<PointCoefficients>,
 }
 
 /// The basis optical depths are computed on.
@@ -309,6 +316,29 @@ impl Path {
         self.shadow.reset(n, levels, basis);
     }
 
+    /// This path as a branch of `other`: its state (throughputs, densities,
+    /// frame, order, albedo weights, radiance and the matrices of its last
+    /// collision), with scratch of the same sizes but not its contents.
+    fn branch_from(&mut self, other: &Path) {
+        self.throughput.clone_from(&other.throughput);
+        self.density_ratio.clone_from(&other.density_ratio);
+        self.inv_mean_density = other.inv_mean_density;
+        self.hero = other.hero;
+        self.frame_e1 = other.frame_e1;
+        self.order = other.order;
+        self.albedo_weights = other.albedo_weights;
+        self.radiance.clone_from(&other.radiance);
+        self.albedos = other.albedos;
+        self.matrices.clone_from(&other.matrices);
+        let n = other.throughput.len();
+        for v in [&mut self.tau_hit, &mut self.forced, &mut self.shadow_tr] {
+            v.resize(n, 0.0);
+        }
+        let (levels, basis) = (other.ray.chords.len(), other.ray.tau_basis.len());
+        self.ray.reset(n, levels, basis);
+        self.shadow.reset(n, levels, basis);
+    }
+
     /// Halves every wavelength's throughput (one of two branches).
     fn halve(&mut self) {
         for t in self.throughput.iter_mut() {
@@ -443,8 +473,16 @@ impl SpectralScene {
                 responses: centre,
                 weights: vec![0.0; n * b],
                 source: Vec::new(),
+                sigma: Vec::new(),
+                coefficients: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
+            if scene.shapes.is_none() {
+                let layers = scene.levels_km.len() - 1;
+                fixed.coefficients = (0..n * layers)
+                    .map(|i| scene.coefficients(&fixed, i % layers, i / layers, 0.0))
+                    .collect();
+            }
             scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
             scene.fixed = Some(fixed);
         }
@@ -532,8 +570,23 @@ impl SpectralScene {
             }));
     }
 
-    /// Fills the spectra's extinction weights from its responses.
+    /// Fills the spectra's extinction weights from its responses, and each
+    /// channel's σ_t per layer.
     fn refresh_weights(&self, spectra: &mut ChannelSpectra) {
+        self.refresh_basis_weights(spectra);
+        let (n, b, layers) = (self.channels.len(), self.basis_len, self.levels_km.len() - 1);
+        spectra.sigma.resize(n * layers, 0.0);
+        for w in 0..n {
+            let weights = &spectra.weights[w * b..(w + 1) * b];
+            for (l, sigma) in spectra.sigma[w * layers..(w + 1) * layers].iter_mut().enumerate() {
+                let basis = &self.basis_sigma[l * b..(l + 1) * b];
+                *sigma = weights.iter().zip(basis).map(|(a, s)| a * s).sum::<f64>().max(0.0);
+            }
+        }
+    }
+
+    /// Fills the spectra's extinction weights on the basis.
+    fn refresh_basis_weights(&self, spectra: &mut ChannelSpectra) {
         let (n, t, b) = (self.channels.len(), self.terms.terms.len(), self.basis_len);
         match &self.basis {
             Basis::Terms(k) => {
@@ -714,10 +767,7 @@ impl SpectralScene {
     /// σ_t of channel `w` in `layer`.
     #[inline]
     fn sigma_t(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
-        let b = self.basis_len;
-        let weights = &spectra.weights[w * b..(w + 1) * b];
-        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
-        weights.iter().zip(sigma).map(|(a, s)| a * s).sum::<f64>().max(0.0)
+        spectra.sigma[w * (self.levels_km.len() - 1) + layer]
     }
 
     /// Adds every basis vector's σ·`len` of `layer` to `tau`.
@@ -749,6 +799,9 @@ impl SpectralScene {
     /// The coefficients of channel `w` at fraction `f` of `layer` (see
     /// [`SpectralScene::fraction`]).
     fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointCoefficients {
+        if let Some(c) = spectra.coefficients.get(w * (self.levels_km.len() - 1) + layer) {
+            return *c;
+        }
         let t = self.terms.terms.len();
         let responses = &spectra.responses[w * t..(w + 1) * t];
         let sum = match &self.shapes {
@@ -936,7 +989,7 @@ impl SpectralScene {
                         && self.settings.sun_samples_per_flight > 1
                         && self.sun_stratified(path, spectra, &ray, sampler)));
             if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
-                branch.clone_from(path);
+                branch.branch_from(path);
                 for (m, tau) in branch.throughput.iter_mut().zip(&path.ray.tau) {
                     *m = *m * (-tau).exp();
                 }
@@ -980,7 +1033,7 @@ impl SpectralScene {
                     path.matrices.clear();
                     path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(cos)));
                     if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
-                        branch.clone_from(path);
+                        branch.branch_from(path);
                         branch.halve();
                         if let Some(next) = self.scattered(branch, quarter_turn(k_out, k_in), k_out, x, layer, sampler)
                         {
@@ -1119,7 +1172,7 @@ impl SpectralScene {
         let hero = path.hero;
         let exact = self.exact_majorant();
         // The hero's majorant depth to the first tentative collision.
-        let mut left = if forced {
+        let left = if forced {
             for (p, t) in path.forced.iter_mut().zip(&path.ray.tau) {
                 *p = -(-t).exp_m1();
             }
@@ -1130,59 +1183,14 @@ impl SpectralScene {
         } else {
             -(1.0 - sampler.next_f64()).ln()
         };
-        // Walk the flight's segments to the first real collision, with
-        // every basis vector's depth to it accumulated on the way.
-        let mut hit = None;
-        let mut last = None;
-        let geometry = &self.geometry;
-        let Depths {
-            tau_basis: tau,
-            chords,
-            exit,
-            ..
-        } = &mut path.ray;
-        tau.fill(0.0);
-        let visit = |s: Segment| {
-            let majorant = if exact {
-                self.sigma_t(spectra, s.layer, hero)
-            } else {
-                self.majorant(spectra, s.layer, hero)
-            };
-            let mut t0 = s.t0;
-            loop {
-                let t = t0 + left / majorant;
-                if majorant <= 0.0 || t >= s.t1 {
-                    left -= majorant * (s.t1 - t0);
-                    break;
-                }
-                let real = exact || {
-                    let f = self.fraction(geometry, s.layer, ray.origin + t * ray.dir);
-                    sampler.next_f64() * majorant < self.sigma_t_point(spectra, s.layer, hero, f)
-                };
-                if real {
-                    self.accumulate_along(tau, geometry, ray, s.layer, s.t0, t);
-                    hit = Some((t, s.layer));
-                    return ControlFlow::Break(());
-                }
-                t0 = t;
-                left = -(1.0 - sampler.next_f64()).ln();
-            }
-            self.accumulate_along(tau, geometry, ray, s.layer, s.t0, s.t1);
-            last = Some((s.t1, s.layer));
-            ControlFlow::Continue(())
+        let hit = if exact {
+            // σ_t is the majorant: the first tentative collision is real,
+            // found by inverting the hero's optical depth (or beyond the
+            // end: rounding leaves a forced one there at the end).
+            (forced || left < path.ray.tau[hero]).then(|| self.locate(path, spectra, ray, left))
+        } else {
+            self.delta_track(path, spectra, ray, left, sampler)
         };
-        // The segments from the half chords `exit_depths` left (no square
-        // roots), or walked.
-        match exit {
-            Some(exit) => {
-                let _ = exit.try_for_each_segment(chords, visit);
-            }
-            None => {
-                tracking::walk(geometry, &self.levels_km, ray, visit);
-            }
-        }
-        // Rounding may leave a forced collision just beyond the end: the end.
-        let hit = if forced { hit.or(last) } else { hit };
         let Some((t, layer)) = hit else {
             let WalkEnd::Ground { t } = end else {
                 return Outcome::Escaped;
@@ -1197,7 +1205,17 @@ impl SpectralScene {
             path.densities_changed();
             return Outcome::Ground { t };
         };
-        Self::combine(spectra, &path.ray.tau_basis, &mut path.tau_hit);
+        // Every channel's depth to the collision: the hero's is `left`
+        // where σ_t is the majorant.
+        if exact && n == 1 {
+            path.tau_hit[hero] = left;
+        } else {
+            if exact {
+                self.basis_depths_to(path, ray, t);
+            }
+            Self::combine(spectra, &path.ray.tau_basis, &mut path.tau_hit);
+        }
+        let geometry = &self.geometry;
         // The collision's density per wavelength, over the hero's.
         let f = self.fraction(geometry, layer, ray.origin + t * ray.dir);
         let density = |sigma_t: f64, transmittance: f64, p: f64| {
@@ -1227,6 +1245,87 @@ impl SpectralScene {
         }
         path.densities_changed();
         Outcome::Collided { t, layer }
+    }
+
+    /// The point at the hero's optical depth `target` along the flight
+    /// (σ_t exact per layer): from the half chords `exit_depths` left, or
+    /// walked; the end if rounding leaves the target beyond it.
+    fn locate(&self, path: &Path, spectra: &ChannelSpectra, ray: &Ray, target: f64) -> (f64, usize) {
+        let layers = self.levels_km.len() - 1;
+        let sigma = &spectra.sigma[path.hero * layers..(path.hero + 1) * layers];
+        let c = match &path.ray.exit {
+            Some(exit) => exit.locate(sigma, &path.ray.chords, target),
+            None => tracking::locate_with(sigma, &self.geometry, &self.levels_km, ray, target),
+        };
+        (c.t, c.layer)
+    }
+
+    /// Every basis vector's depth along the flight to distance `t` into
+    /// `path.ray.tau_basis` (σ constant per layer).
+    fn basis_depths_to(&self, path: &mut Path, ray: &Ray, t: f64) {
+        let Depths {
+            tau_basis: tau,
+            chords,
+            exit,
+            ..
+        } = &mut path.ray;
+        tau.fill(0.0);
+        let visit = |s: Segment| {
+            self.accumulate(tau, s.layer, s.t1.min(t) - s.t0);
+            if s.t1 >= t {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        match exit {
+            Some(exit) => {
+                let _ = exit.try_for_each_segment(chords, visit);
+            }
+            None => {
+                tracking::walk(&self.geometry, &self.levels_km, ray, visit);
+            }
+        }
+    }
+
+    /// Delta tracking of the hero against its majorant (the smooth medium,
+    /// or inflated majorants), the first tentative collision at majorant
+    /// depth `left`: the first real collision, with every basis vector's
+    /// depth to it in `path.ray.tau_basis`, or `None` past the end.
+    fn delta_track(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        mut left: f64,
+        sampler: &mut Sampler,
+    ) -> Option<(f64, usize)> {
+        let hero = path.hero;
+        let geometry = &self.geometry;
+        let mut hit = None;
+        let tau = &mut path.ray.tau_basis;
+        tau.fill(0.0);
+        tracking::walk(geometry, &self.levels_km, ray, |s| {
+            let majorant = self.majorant(spectra, s.layer, hero);
+            let mut t0 = s.t0;
+            while majorant > 0.0 && left < majorant * (s.t1 - t0) {
+                let t = t0 + left / majorant;
+                let f = self.fraction(geometry, s.layer, ray.origin + t * ray.dir);
+                if sampler.next_f64() * majorant < self.sigma_t_point(spectra, s.layer, hero, f) {
+                    self.accumulate_along(tau, geometry, ray, s.layer, s.t0, t);
+                    hit = Some((t, s.layer));
+                    return ControlFlow::Break(());
+                }
+                t0 = t;
+                left = -(1.0 - sampler.next_f64()).ln();
+            }
+            if majorant > 0.0 {
+                left -= majorant * (s.t1 - t0);
+            }
+            self.accumulate_along(tau, geometry, ray, s.layer, s.t0, s.t1);
+            ControlFlow::Continue(())
+        });
+        hit
     }
 
     /// The current flight's segments into `path.segments`, and every basis

@@ -408,14 +408,32 @@ pub fn locate_on_ray(medium: &Medium, geometry: &Geometry, ray: &Ray, tau_target
     let mut search = DepthSearch::new(tau_target);
     let mut hit = None;
     walk(geometry, medium.levels_km(), ray, |seg| {
-        hit = search.step(medium, seg, majorant_depth(medium, &seg));
+        hit = search.step(medium.sigma_maj(seg.layer), seg, majorant_depth(medium, &seg));
         if hit.is_some() {
             ControlFlow::Break(())
         } else {
             ControlFlow::Continue(())
         }
     });
-    hit.unwrap_or_else(|| search.beyond(medium))
+    hit.unwrap_or_else(|| search.beyond(medium.sigma_majorants()))
+}
+
+/// The point at optical depth `tau_target` along `ray` for σ per layer
+/// `sigma` (finite segments only), walking its segments until it is
+/// reached (as [`locate_on_ray`]).
+pub fn locate_with(sigma: &[f64], geometry: &Geometry, levels_km: &[f64], ray: &Ray, tau_target: f64) -> Collision {
+    let mut search = DepthSearch::new(tau_target);
+    let mut hit = None;
+    walk(geometry, levels_km, ray, |seg| {
+        let s = sigma[seg.layer];
+        hit = search.step(s, seg, s * (seg.t1 - seg.t0));
+        if hit.is_some() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    hit.unwrap_or_else(|| search.beyond(sigma))
 }
 
 /// The point at majorant optical depth `tau_target` along `segments` (in
@@ -424,8 +442,8 @@ pub fn locate(medium: &Medium, segments: impl IntoIterator<Item = Segment>, tau_
     let mut search = DepthSearch::new(tau_target);
     segments
         .into_iter()
-        .find_map(|seg| search.step(medium, seg, majorant_depth(medium, &seg)))
-        .unwrap_or_else(|| search.beyond(medium))
+        .find_map(|seg| search.step(medium.sigma_maj(seg.layer), seg, majorant_depth(medium, &seg)))
+        .unwrap_or_else(|| search.beyond(medium.sigma_majorants()))
 }
 
 /// The search for the point at a target optical depth, segment by segment.
@@ -444,9 +462,8 @@ impl DepthSearch {
         }
     }
 
-    /// The collision if the target lies in `seg` (majorant depth `tau`).
-    fn step(&mut self, medium: &Medium, seg: Segment, tau: f64) -> Option<Collision> {
-        let sigma = medium.sigma_maj(seg.layer);
+    /// The collision if the target lies in `seg` (σ `sigma`, depth `tau`).
+    fn step(&mut self, sigma: f64, seg: Segment, tau: f64) -> Option<Collision> {
         if sigma > 0.0 && self.acc + tau >= self.target {
             return Some(Collision {
                 t: (seg.t0 + (self.target - self.acc) / sigma).min(seg.t1),
@@ -460,12 +477,12 @@ impl DepthSearch {
     }
 
     /// Rounding left the target just beyond the last segment: its end.
-    fn beyond(&self, medium: &Medium) -> Collision {
+    fn beyond(&self, sigma: &[f64]) -> Collision {
         let seg = self.last.expect("a located flight has a segment");
         Collision {
             t: seg.t1,
             layer: seg.layer,
-            sigma_maj: medium.sigma_maj(seg.layer),
+            sigma_maj: sigma[seg.layer],
         }
     }
 }
