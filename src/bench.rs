@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use crate::error::Result;
 use crate::job::Job;
-use crate::render::{Tally, render_directions, render_directions_all, render_directions_spectral};
+use crate::render::{Tally, render_directions, render_directions_all};
 
 /// The reference case as a job file (also `examples/throughput_reference.toml`).
 pub const REFERENCE_JOB: &str = include_str!(concat!(
@@ -128,7 +128,7 @@ fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn 
     let shared = job
         .spectral_scene(&job.tasks[0])
         .expect("the reference atmosphere is piecewise constant");
-    let (t_shared, tallies) = timed(|| render_directions_spectral(&shared, alt, dirs, samples, seed, 0));
+    let (t_shared, tallies) = timed(|| render_directions_all(&shared, alt, dirs, samples, seed, 0));
     writeln!(
         out,
         "{} along shared paths: {t_shared:.3} s, cost ratio {:.3} to 550 nm alone",
@@ -140,21 +140,7 @@ fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn 
     for index in [0, last] {
         let lambda = spectrum.wavelengths[index];
         let alone = variant(&spectrum.keys(&[lambda]), "0.3")?;
-        // A band alone still needs shared paths (its wavelengths vary per
-        // path); a wavelength alone is the single-wavelength tracer.
-        let (t, dedicated) = match alone.spectral_scene(&alone.tasks[0]) {
-            Some(scene) => {
-                let (t, v) = timed(|| render_directions_spectral(&scene, alt, dirs, samples, seed, 0));
-                (
-                    t,
-                    v.into_iter()
-                        .next()
-                        .and_then(|a| a.into_iter().next())
-                        .unwrap_or_default(),
-                )
-            }
-            None => timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, 0)),
-        };
+        let (t, dedicated) = timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, 0));
         let dedicated_se = mean_rel_se(&dedicated);
         let shared_se = mean_rel_se(&tallies[index][0]);
         // A dedicated run of the shared run's time: its error scales as 1/√time.

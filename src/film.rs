@@ -13,10 +13,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use rayon::prelude::*;
 
 use crate::camera::{Camera, PixelFilter};
-use crate::integrator::Scene;
-use crate::render::SampleValues;
 use crate::render::Tally;
 use crate::sampler::Sampler;
+use crate::spectral::Scene;
 use crate::stokes::Stokes;
 use crate::stokes_frame::{StokesFrame, carry};
 
@@ -166,15 +165,15 @@ pub struct PixelSampling<'a> {
     pub key: u64,
 }
 
-/// Renders every pixel: `radiance(direction, e1, sampler)` gives a sample's
+/// Renders every pixel: `radiance(direction, e1, sampler, values)` writes a sample's
 /// `count` values referred to the axis `e1`; returns tallies `[value][pixel]` and the count
 /// of non-finite samples. `progress` is called as pixels finish (from
 /// worker threads).
-pub fn render_pixels<R: SampleValues>(
+pub fn render_pixels(
     sampling: &PixelSampling,
     count: usize,
     progress: &(dyn Fn(u64) + Sync),
-    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R + Sync,
+    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]) + Sync,
 ) -> (Vec<Vec<Tally>>, u64) {
     let pixels = sampling.weights.len();
     let mut per_pixel = vec![Tally::default(); pixels * count];
@@ -188,13 +187,13 @@ pub fn render_pixels<R: SampleValues>(
 /// pixel). Each pixel's tallies run in sample order, so adding 0..a and
 /// then a..b gives bit for bit what adding 0..b at once gives. `progress`
 /// gets the paths traced, as pixels finish.
-pub fn render_pixels_into<R: SampleValues>(
+pub fn render_pixels_into(
     sampling: &PixelSampling,
     items: std::ops::Range<u64>,
     per_pixel: &mut [Tally],
     count: usize,
     progress: &(dyn Fn(u64) + Sync),
-    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R + Sync,
+    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]) + Sync,
 ) {
     let (w, _) = sampling.camera.size();
     let pixels = sampling.weights.len() as u64;
@@ -238,20 +237,20 @@ pub fn split_values(per_pixel: &[Tally], count: usize) -> (Vec<Vec<Tally>>, u64)
     (tallies, non_finite)
 }
 
-/// One wavelength for every albedo of `scene` seen from `altitude_km`:
-/// tallies `[albedo][pixel]` and the count of non-finite samples.
+/// Every channel and albedo of `scene` seen from `altitude_km`: tallies
+/// `[channel·albedos + albedo][pixel]` and the count of non-finite samples.
 pub fn render_layers(
     scene: &Scene,
     sampling: &PixelSampling,
     altitude_km: f64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Vec<Tally>>, u64) {
-    render_pixels(sampling, scene.albedos.len(), progress, |v, e1, s| {
-        scene.radiance_sample(altitude_km, v, e1, s)
+    render_pixels(sampling, scene.value_count(), progress, |v, e1, s, out| {
+        scene.radiance_sample(altitude_km, v, e1, s, out)
     })
 }
 
-/// [`render_layers`] for the scene's first albedo.
+/// [`render_layers`] for the scene's first channel and albedo.
 pub fn render_layer(
     scene: &Scene,
     sampling: &PixelSampling,
@@ -269,13 +268,13 @@ fn strata(samples: u64) -> u64 {
 
 /// Adds samples `range` of one pixel to its `tallies`; false for a pixel
 /// entirely outside the image's circle (zero, no samples).
-fn render_pixel<R: SampleValues>(
+fn render_pixel(
     sampling: &PixelSampling,
     (i, j): (usize, usize),
     index: usize,
     range: std::ops::Range<u64>,
     tallies: &mut [Tally],
-    radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler) -> R,
+    radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]),
 ) -> bool {
     let weight = sampling.weights[index];
     if weight <= 0.0 {
@@ -289,6 +288,7 @@ fn render_pixel<R: SampleValues>(
     let samples = sampling.samples;
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
+    let mut values = vec![Stokes::zero(); tallies.len()];
     for s in range {
         let mut sampler = Sampler::new(&[sampling.seed, sampling.key, index as u64, s]);
         let (x, y) = match sampling.filter {
@@ -311,12 +311,12 @@ fn render_pixel<R: SampleValues>(
             None => tallies.iter_mut().for_each(|t| t.add(&Stokes::zero())),
             Some(ray) => {
                 let e1 = carry(centre_e1, centre.direction, ray.direction);
-                let l = radiance(ray.direction, e1, &mut sampler);
+                radiance(ray.direction, e1, &mut sampler, &mut values);
                 let scale = match sampling.filter {
                     PixelFilter::Center => 1.0,
                     PixelFilter::Box => ray.jacobian / weight,
                 };
-                for (t, v) in tallies.iter_mut().zip(l.values()) {
+                for (t, v) in tallies.iter_mut().zip(&values) {
                     t.add(&(*v * scale));
                 }
             }

@@ -1,7 +1,5 @@
-//! The density from which sun-aware connections along shared spectral
-//! paths draw one point along a whole flight (`spectral`; the
-//! single-wavelength tracer still builds its own, per segment, in
-//! `integrator`, until the two tracers are one).
+//! The density from which sun-aware connections draw one point along a
+//! whole flight (`spectral`).
 //!
 //! It follows up to two channels (one for a single wavelength). Each
 //! followed channel's density is a defensive mixture:

@@ -12,7 +12,7 @@ use std::io::{self, Write};
 use std::time::Instant;
 
 use crate::job::{Job, Sensor, Task};
-use crate::render::{Direction, render_directions, render_directions_spectral};
+use crate::render::{Direction, render_directions, render_directions_all};
 use crate::shard::Shard;
 use crate::unit::Layout;
 
@@ -150,7 +150,7 @@ fn calibrate_task(job: &Job, task: &Task) -> Rates {
         }),
         shared: job.spectral_scene(task).map(|shared| {
             rate(&|n| {
-                render_directions_spectral(&shared, alt, &directions, n, seed, u64::MAX);
+                render_directions_all(&shared, alt, &directions, n, seed, u64::MAX);
             })
         }),
     }

@@ -7,9 +7,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::integrator::{Radiances, Scene};
 use crate::sampler::Sampler;
-use crate::spectral::{SpectralRadiances, SpectralScene};
+use crate::spectral::Scene;
 use crate::stokes::{Stokes, meridian_frame};
 use crate::stokes_frame::StokesFrame;
 
@@ -115,33 +114,10 @@ impl Tally {
 const FLUX_DOWN_KEY: u64 = u64::MAX - 1;
 const FLUX_UP_KEY: u64 = u64::MAX - 2;
 
-/// A sample's values: the Stokes vectors it scores, in a fixed order.
-pub trait SampleValues {
-    fn values(&self) -> impl Iterator<Item = &Stokes>;
-}
-
-impl SampleValues for Radiances {
-    fn values(&self) -> impl Iterator<Item = &Stokes> {
-        self.as_slice().iter()
-    }
-}
-
-impl SampleValues for SpectralRadiances {
-    /// Wavelength-major, then albedo.
-    fn values(&self) -> impl Iterator<Item = &Stokes> {
-        self.values.iter()
-    }
-}
-
 /// Tallies (one per value of a sample) of one estimate per sample index `i`
-/// of `f(sampler)`, summed in blocks (fixed order: bit-identical for any
-/// thread count).
-pub fn tally<R: SampleValues>(
-    samples: u64,
-    keys: [u64; 3],
-    count: usize,
-    f: impl Fn(&mut Sampler) -> R + Sync,
-) -> Vec<Tally> {
+/// of `f(sampler, values)` (which writes the sample's `count` values),
+/// summed in blocks (fixed order: bit-identical for any thread count).
+pub fn tally(samples: u64, keys: [u64; 3], count: usize, f: impl Fn(&mut Sampler, &mut [Stokes]) + Sync) -> Vec<Tally> {
     let mut total = vec![Tally::default(); count];
     tally_blocks(0..samples.div_ceil(BLOCK), samples, keys, &mut total, f);
     total
@@ -152,22 +128,23 @@ pub fn tally<R: SampleValues>(
 /// added to `total` in block order. Adding blocks 0..a and then a..b gives
 /// bit for bit what adding 0..b at once gives, which is what makes shards
 /// and checkpoints exact.
-pub fn tally_blocks<R: SampleValues>(
+pub fn tally_blocks(
     blocks: std::ops::Range<u64>,
     samples: u64,
     keys: [u64; 3],
     total: &mut [Tally],
-    f: impl Fn(&mut Sampler) -> R + Sync,
+    f: impl Fn(&mut Sampler, &mut [Stokes]) + Sync,
 ) {
     let count = total.len();
     let partial: Vec<Vec<Tally>> = blocks
         .into_par_iter()
         .map(|b| {
             let mut t = vec![Tally::default(); count];
+            let mut values = vec![Stokes::zero(); count];
             for i in b * BLOCK..((b + 1) * BLOCK).min(samples) {
                 let mut s = Sampler::new(&[keys[0], keys[1], keys[2], i]);
-                let r = f(&mut s);
-                for (ta, v) in t.iter_mut().zip(r.values()) {
+                f(&mut s, &mut values);
+                for (ta, v) in t.iter_mut().zip(&values) {
                     ta.add(v);
                 }
             }
@@ -186,36 +163,11 @@ pub fn block_samples(blocks: &std::ops::Range<u64>, samples: u64) -> u64 {
     (blocks.end * BLOCK).min(samples) - (blocks.start * BLOCK).min(samples)
 }
 
-/// Renders each direction with `samples` paths for every albedo of the
-/// scene: `[albedo][direction]`. `keys` = (seed, stream key) identify the
-/// streams.
+/// Renders each direction with `samples` paths for every channel and
+/// albedo of the scene: `[channel][albedo][direction]`. `keys` = (seed,
+/// stream key) identify the streams.
 pub fn render_directions_all(
     scene: &Scene,
-    altitude_km: f64,
-    directions: &[Direction],
-    samples: u64,
-    seed: u64,
-    key: u64,
-) -> Vec<Vec<Tally>> {
-    let per_direction: Vec<Vec<Tally>> = directions
-        .iter()
-        .enumerate()
-        .map(|(d, dir)| {
-            let (v, e1) = (dir.vector(), dir.meridian_axis());
-            tally(samples, [seed, key, d as u64], scene.albedos.len(), |s| {
-                scene.radiance_sample(altitude_km, v, e1, s)
-            })
-        })
-        .collect();
-    (0..scene.albedos.len())
-        .map(|a| per_direction.iter().map(|t| t[a]).collect())
-        .collect()
-}
-
-/// Renders each direction with shared spectral paths: `[wavelength][albedo]
-/// [direction]`.
-pub fn render_directions_spectral(
-    scene: &SpectralScene,
     altitude_km: f64,
     directions: &[Direction],
     samples: u64,
@@ -228,8 +180,8 @@ pub fn render_directions_spectral(
         .enumerate()
         .map(|(d, dir)| {
             let (v, e1) = (dir.vector(), dir.meridian_axis());
-            tally(samples, [seed, key, d as u64], nw * na, |s| {
-                scene.radiance_sample(altitude_km, v, e1, s)
+            tally(samples, [seed, key, d as u64], scene.value_count(), |s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         })
         .collect();
@@ -242,7 +194,7 @@ pub fn render_directions_spectral(
         .collect()
 }
 
-/// [`render_directions_all`] for the scene's first albedo.
+/// [`render_directions_all`] for the scene's first channel and albedo.
 pub fn render_directions(
     scene: &Scene,
     altitude_km: f64,
@@ -251,7 +203,9 @@ pub fn render_directions(
     seed: u64,
     key: u64,
 ) -> Vec<Tally> {
-    render_directions_all(scene, altitude_km, directions, samples, seed, key).swap_remove(0)
+    render_directions_all(scene, altitude_km, directions, samples, seed, key)
+        .swap_remove(0)
+        .swap_remove(0)
 }
 
 /// Fluxes at the observer level per unit E0 (libRadtran's edir, edn, eup).
@@ -268,19 +222,24 @@ pub struct Fluxes {
     pub samples: u64,
 }
 
-/// Irradiances at the observer for every albedo of the scene: E = π·⟨I⟩
-/// over cosine-distributed viewing directions in each hemisphere; the
-/// direct beam from the exact transmittance along the sun's direction.
+/// Irradiances at the observer for every albedo of the scene's first
+/// channel: E = π·⟨I⟩ over cosine-distributed viewing directions in each
+/// hemisphere; the direct beam from the exact transmittance along the
+/// sun's direction.
 pub fn render_fluxes_all(scene: &Scene, altitude_km: f64, samples: u64, seed: u64, key: u64) -> Vec<Fluxes> {
     let hemisphere = |stream: u64, up: bool| {
-        tally(samples, [seed, key, stream], scene.albedos.len(), |s| {
-            flux_sample(scene, altitude_km, up, s)
+        tally(samples, [seed, key, stream], scene.value_count(), |s, out| {
+            flux_sample(scene, altitude_km, up, s, out)
         })
     };
     let down = hemisphere(FLUX_DOWN_KEY, false);
     let up = hemisphere(FLUX_UP_KEY, true);
-    let e_dir = direct_horizontal(scene, altitude_km);
-    down.iter().zip(&up).map(|(d, u)| Fluxes::new(e_dir, d, u)).collect()
+    let e_dir = scene.direct_horizontal(altitude_km, 0);
+    down.iter()
+        .zip(&up)
+        .take(scene.albedos.len())
+        .map(|(d, u)| Fluxes::new(e_dir, d, u))
+        .collect()
 }
 
 /// The stream (third key) of the downward (`up` false) or upward flux.
@@ -290,20 +249,11 @@ pub fn flux_stream(up: bool) -> u64 {
 
 /// One sample of an irradiance estimate: π·I for a cosine-distributed
 /// viewing direction in the upper (`up` false: light coming down) or lower
-/// hemisphere, for every albedo of the scene.
-pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler) -> Radiances {
+/// hemisphere, for every channel and albedo of the scene, into `out`.
+pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler, out: &mut [Stokes]) {
     let (v, e1) = flux_direction(up, s);
-    let mut l = scene.radiance_sample(altitude_km, v, e1, s);
-    to_irradiance(&mut l.values);
-    l
-}
-
-/// [`flux_sample`] for every channel of shared spectral paths.
-pub fn flux_sample_spectral(scene: &SpectralScene, altitude_km: f64, up: bool, s: &mut Sampler) -> SpectralRadiances {
-    let (v, e1) = flux_direction(up, s);
-    let mut l = scene.radiance_sample(altitude_km, v, e1, s);
-    to_irradiance(&mut l.values);
-    l
+    scene.radiance_sample(altitude_km, v, e1, s, out);
+    to_irradiance(out);
 }
 
 /// A cosine-distributed viewing direction in the upper (`up` false) or
@@ -323,14 +273,6 @@ fn to_irradiance(values: &mut [Stokes]) {
     for x in values.iter_mut() {
         *x = Stokes::new(PI * x.0[0], 0.0, 0.0, 0.0);
     }
-}
-
-/// The direct solar irradiance on a horizontal plane at the observer,
-/// μ0·T_sun, from the exact transmittance along the sun's direction.
-pub fn direct_horizontal(scene: &Scene, altitude_km: f64) -> f64 {
-    let origin = scene.observer_position(altitude_km);
-    let mu0 = scene.sun.direction.dot(scene.geometry.up(origin));
-    mu0.max(0.0) * scene.direct_transmittance(altitude_km)
 }
 
 impl Fluxes {

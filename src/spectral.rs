@@ -1,66 +1,83 @@
-//! Shared spectral paths: one path carries every wavelength of a task.
+//! The path tracer: backward (sensor-to-sun) polarised Monte Carlo, one
+//! path carrying every channel of a task (N channels; N = 1 is a single
+//! wavelength or band, with nothing special about it).
 //!
-//! Choice: hero-wavelength sampling with spectral multiple importance
-//! sampling over whole paths (Wilkie et al. 2014, "Hero wavelength spectral
-//! sampling"). One wavelength picked uniformly per path (the hero) makes
-//! every sampling decision (free flights, phase-function directions); each
-//! wavelength λ scores its path integrand over the *mixture* of the N
-//! wavelengths' path densities, f_λ(path) / ((1/N)·Σ_j p_j(path)) — the
-//! balance heuristic. The path densities are carried as ratios to the
-//! hero's (as pbrt-v4 does), so nothing under- or overflows. Every weight is
-//! bounded: the mixture contains p_λ/N, so the weight is at most N times the
-//! single-wavelength estimator's f_λ/p_λ, itself at most 1 per flight
-//! (σ_s/σ_t, forcing probability) and per scattering (|M_ij|/P11 ≤ 1).
-//! (Mixing per decision instead multiplies per-decision mixtures along the
-//! path and was measured 2.4× noisier at 320 nm with 760 nm beside it.
-//! Also measured and not kept, on the throughput reference case with
-//! eleven wavelengths from 320 to 760 nm: heroes drawn ∝ (column σ_t)^α
-//! only trade 320 nm against 760 nm (α = 0.5: relative error ×0.74 at
-//! 320, ×1.27 at 760; α = 1: ×0.60 and ×1.68); and choosing collision or
-//! ground on a flight toward a reflecting ground with one probability for
-//! every wavelength, (min + max)/2 of their collision probabilities,
-//! instead of the hero's analog choice, raised the error ×1.27 at 320 nm
-//! and ×1.14 at 760 nm.)
-//! The price, measured (README, `bench --ratios`): a path whose hero is
-//! 550 nm is nearly useless at 320 nm (23× the error of a 320 nm path), so
-//! with eleven channels from 320 to 760 nm the 320 nm error at equal time
-//! is about 3.5× that of a dedicated run. Spectral tracking against a
-//! majorant over the wavelengths was the alternative; with Rayleigh's λ⁻⁴ spread (σ differs
-//! ×4 between 320 and 760 nm in the thin upper layers, ×20 in extinction)
-//! its null-collision weights need history-aware probabilities to stay
-//! bounded, while the hero scheme is bounded by construction and reuses
-//! the forced-collision flights of the single-wavelength tracer.
+//! A path starts at the observer looking along the viewing direction v and
+//! is traced against the photon direction. Per channel its throughput is a
+//! 4×4 Mueller matrix T (scalar factors folded in) mapping the Stokes
+//! vector arriving at the current vertex, in the current reference frame,
+//! to the Stokes vector at the sensor in the frame of v
+//! (CONVENTIONS.md). Radiance is per unit solar irradiance normal to the
+//! beam (E0 = 1) unless a source spectrum weights it (`with_source`).
 //!
-//! The sensor's first vertex is split as in the single-wavelength tracer
-//! (`Settings::first_vertex_splitting`, `SpectralScene::trace`), into a
-//! spare path kept per thread.
+//! **What is shared and what is per channel.** The geometry of a path (its
+//! vertices, directions and Stokes frames) is shared; each channel has its
+//! own throughput and its own path density. One channel per path, drawn
+//! uniformly (the hero), makes every sampling decision; channel λ scores
+//! its path integrand over the mixture of the N channels' path densities,
+//! f_λ(path) / ((1/N)·Σ_j p_j(path)): hero-wavelength spectral MIS with
+//! the balance heuristic (Wilkie et al. 2014). Densities are carried as
+//! ratios to the hero's, so nothing under- or overflows, and every weight
+//! is at most N times the single-channel estimator's f_λ/p_λ, itself at
+//! most 1 per flight and per scattering.
 //!
-//! Channels may be bands (`band_width_nm` > 0): each path then draws its
+//! **Free flights** (`flight`): one routine. Tentative collisions against
+//! the hero's majorant, each real with probability σ_t/σ_maj (delta
+//! tracking, in the smooth medium or with inflated majorants); with σ_t
+//! itself the majorant (the layered medium) the first is real and is found
+//! by inverting the hero's optical depth. A flight whose end would score
+//! nothing (leaving through the top, a black ground) is forced to collide
+//! (truncated exponential, weight 1 − e^(−τ)); one toward a reflecting
+//! ground is analog, or at the sensor's first vertex split into both ends.
+//! A collision at x has density σ_t,λ(x)·e^(−τ_λ(x)) at every channel
+//! (over its forcing probability when forced). Absorption is a weight:
+//! σ_s/σ_t at each collision.
+//!
+//! **Scattering**: the σ_s-weighted mixture of Rayleigh (with
+//! depolarisation) and Henyey–Greenstein phase matrices, in the
+//! scattering-plane frame (e2 = k_in × k_out normalised, e1 = e2 × k), the
+//! path's frame rotated into it. The new direction comes from one channel's
+//! phase function (picked uniformly) and one component (σ_i/σ_s); every
+//! channel's weight is its matrix over the mean of the channels' P11
+//! (one-sample MIS over channels and components).
+//!
+//! **Sun connections** (next-event estimation) at every scattering and
+//! ground vertex, or along the whole flight instead: K stratified points
+//! of the hero's forced density (`sun_samples_per_flight`), or one point
+//! from a density following the sunlit single scattering (sun-aware,
+//! [`FlightDensity`]). Such a point's density is the same for every
+//! channel, so the path's MIS weight applies to it unchanged. Shadow rays
+//! give every channel's transmittance, exact or ratio-tracked against the
+//! largest of the channels' majorants, along the direct beam's path (in
+//! pseudo-spherical geometry through spherical shells). A shadow ray that
+//! meets the planet scores nothing; escaping paths score nothing (the
+//! unscattered sun is not counted).
+//!
+//! **Ground**: Lambertian and depolarising. Every albedo of the scene comes
+//! from the same paths: the throughput carries the albedos' mean ā, each
+//! albedo a weight (a/ā)^k after k reflections.
+//!
+//! **Splitting and roulette**: the sensor's first vertex is split (both
+//! ends of a flight toward a reflecting ground; two scattering directions
+//! a quarter turn apart, half the weight each), into a spare path kept
+//! per thread. After the second vertex, Russian roulette on the mean
+//! effective T₀₀ over the channels (survival min(1, T₀₀/0.1), the survivor
+//! divided by it).
+//!
+//! **Channels** may be bands (`band_width_nm` > 0): each path draws its
 //! own wavelength inside each band, stratified over the estimate's samples
-//! (`Sampler::stratified`), and estimates the band-averaged radiance. The
-//! optics at any wavelength come from the atmosphere's terms
-//! (`spectral_terms`): per path, one response per term and channel. With
-//! a source spectrum (`with_source`, absolute units) each channel's
-//! radiance is weighted by the source at the wavelength the path drew, so
-//! a band estimates the band average of E0(λ)·L(λ), not the product of
-//! two averages.
+//! (`Sampler::stratified`); the optics at any wavelength come from the
+//! atmosphere's terms (`spectral_terms`). Optical depths along a ray are
+//! computed once per extinction basis vector (the atmosphere's extinction
+//! terms, or the channels' own σ_t profiles for monochromatic channels of
+//! the layered medium when there are fewer channels than terms) and
+//! combined per channel, τ_λ = Σ_b W_λb·τ_b: in closed form through
+//! spherical shells of the layered medium, else segment by segment (in the
+//! smooth medium each term with its shape inside the layer, by
+//! quadrature).
 //!
-//! Optical depths along a ray are computed once per extinction basis
-//! vector (the atmosphere's extinction terms, or the channels' own σ_t
-//! profiles for monochromatic channels in the layered medium when there
-//! are fewer channels than terms) and combined per channel:
-//! τ_λ = Σ_b W_λb·τ_b; in closed form through spherical shells of the
-//! layered medium, else segment by segment (in the smooth medium each term
-//! with its shape inside the layer, by quadrature). Free flights are
-//! forced, analog or delta-tracked (`flight`), shadow rays exact or
-//! ratio-tracked against the largest of the channels' majorants.
-//!
-//! Sun connections are made at the collision points, or with sun-aware
-//! connections (`with_sun_aware`) at one point per flight drawn from the
-//! mixture over the channels of their sun-following densities
-//! ([`SpectralScene::sun_along_flight`]): the point's density is the same
-//! for every channel, so the spectral MIS weight of the path so far
-//! applies to it unchanged.
+//! What was measured and chosen (hero choice, roulette, splitting, the
+//! sun-aware share): README, "Throughput" and "Sun connections".
 
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
@@ -133,11 +150,18 @@ enum Basis {
     Channels,
 }
 
-/// Everything a shared-wavelength path needs.
+/// Everything a path needs: the atmosphere, its channels, the sun, the
+/// ground and the transport's settings.
 #[derive(Debug, Clone)]
-pub struct SpectralScene {
+pub struct Scene {
     pub geometry: Geometry,
     pub sun: Sun,
+    /// Ground albedos, all estimated from the same paths (at most
+    /// [`MAX_ALBEDOS`]): a path with k ground reflections scores a^k times
+    /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly. Flights
+    /// toward the ground are forced only when no albedo reflects, so an
+    /// albedo 0 in a list with reflecting ones is noisier than alone
+    /// (README, "albedo").
     pub albedos: Vec<f64>,
     pub settings: Settings,
     levels_km: Vec<f64>,
@@ -168,8 +192,10 @@ pub struct SpectralScene {
     /// Majorants are this times a bound on σ_t over each layer (1 and the
     /// layered medium: σ_t itself, every tentative collision real).
     majorant_scale: f64,
-    /// Pseudo-spherical geometry: shadow rays toward the sun through
-    /// spherical shells of this radius (km) (see `integrator::Scene`).
+    /// Pseudo-spherical geometry (a plane-parallel scene): the direct beam
+    /// reaching a point at altitude z is attenuated along its path through
+    /// spherical shells of this planet radius (km), as DISORT's
+    /// pseudo-spherical mode does; everything else stays plane-parallel.
     pseudo_spherical_radius_km: Option<f64>,
 }
 
@@ -183,21 +209,6 @@ pub struct MediumSettings {
     /// Pseudo-spherical geometry's planet radius (km), in a plane-parallel
     /// scene.
     pub pseudo_spherical_radius_km: Option<f64>,
-}
-
-/// One sample's radiances: `values[λ·albedos + albedo]`.
-#[derive(Debug, Clone)]
-pub struct SpectralRadiances {
-    pub values: Vec<Stokes>,
-    pub wavelengths: usize,
-    pub albedos: usize,
-}
-
-impl SpectralRadiances {
-    /// The radiance of wavelength `w` and albedo `a`.
-    pub fn get(&self, w: usize, a: usize) -> Stokes {
-        self.values[w * self.albedos + a]
-    }
 }
 
 /// A path's state; its per-wavelength vectors are reused from sample to
@@ -400,7 +411,7 @@ enum Outcome {
     Escaped,
 }
 
-impl SpectralScene {
+impl Scene {
     /// A scene of `channels` over an atmosphere's levels and terms.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -412,7 +423,7 @@ impl SpectralScene {
         albedos: Vec<f64>,
         settings: Settings,
         medium: MediumSettings,
-    ) -> SpectralScene {
+    ) -> Scene {
         let layers = levels_km.len() - 1;
         let n = channels.len();
         let banded = channels.iter().any(|c| c.band_width_nm > 0.0);
@@ -447,7 +458,7 @@ impl SpectralScene {
         };
         let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
         let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
-        let mut scene = SpectralScene {
+        let mut scene = Scene {
             geometry,
             sun,
             albedos,
@@ -493,7 +504,7 @@ impl SpectralScene {
     /// wavelengths: absolute units, band averages of E0(λ)·L(λ). Every
     /// channel's wavelengths must lie inside the spectrum (the job checks
     /// it); outside, the source counts as 0.
-    pub fn with_source(mut self, source: Arc<SolarSpectrum>) -> SpectralScene {
+    pub fn with_source(mut self, source: Arc<SolarSpectrum>) -> Scene {
         self.source = Some(source);
         if let Some(mut fixed) = self.fixed.take() {
             self.refresh_source(&mut fixed, |w| self.channels[w].lambda_nm);
@@ -504,9 +515,9 @@ impl SpectralScene {
 
     /// The scene with sun-aware connections: at every flight, one point
     /// drawn along it from a density that follows the sunlit single
-    /// scattering of the channels ([`SpectralScene::sun_along_flight`])
+    /// scattering of the channels ([`Scene::sun_along_flight`])
     /// instead of the connection at the collision.
-    pub fn with_sun_aware(mut self) -> SpectralScene {
+    pub fn with_sun_aware(mut self) -> Scene {
         let layers = self.levels_km.len() - 1;
         // Each channel's coefficients per layer at its centre wavelength,
         // and its column extinction.
@@ -639,7 +650,7 @@ impl SpectralScene {
 
     /// The direct beam at the observer in channel `w`, normal to it: the
     /// band average of T(λ), times the source at λ with `weighted` and a
-    /// source spectrum (as [`SpectralScene::direct_horizontal`]); 0 for a
+    /// source spectrum (as [`Scene::direct_horizontal`]); 0 for a
     /// sun below the observer's horizon or behind the planet.
     pub fn direct_normal(&self, altitude_km: f64, w: usize, weighted: bool) -> f64 {
         let origin = self.geometry.observer_position(altitude_km);
@@ -671,7 +682,7 @@ impl SpectralScene {
         self.term_columns_in((self.geometry, *ray), length)
     }
 
-    /// [`SpectralScene::term_columns`] along a ray of a given geometry.
+    /// [`Scene::term_columns`] along a ray of a given geometry.
     fn term_columns_in(&self, (geometry, ray): (Geometry, Ray), length: f64) -> Option<Vec<f64>> {
         let terms = &self.terms.terms;
         let mut columns = vec![0.0; terms.len()];
@@ -714,7 +725,7 @@ impl SpectralScene {
                 .map(|lambda| solar.irradiance(lambda).unwrap_or(0.0))
                 .collect::<Vec<f64>>()
         });
-        SpectralScene::band_average_of(&self.band_cells(w), columns, source.as_deref())
+        Scene::band_average_of(&self.band_cells(w), columns, source.as_deref())
     }
 
     /// The midpoints of channel `w`'s cells (its wavelength alone for a
@@ -726,7 +737,7 @@ impl SpectralScene {
     }
 
     /// The extinction responses of every term at the midpoints of channel
-    /// `w`'s cells (`[cell·terms + term]`), for [`SpectralScene::band_average_of`].
+    /// `w`'s cells (`[cell·terms + term]`), for [`Scene::band_average_of`].
     pub fn band_cells(&self, w: usize) -> Vec<f64> {
         let mut responses = vec![Response::default(); self.terms.terms.len()];
         let mut out = Vec::new();
@@ -738,7 +749,7 @@ impl SpectralScene {
     }
 
     /// The mean over a band's cells (responses from
-    /// [`SpectralScene::band_cells`]) of e^(−Σ response·column), each cell
+    /// [`Scene::band_cells`]) of e^(−Σ response·column), each cell
     /// times its `source` value when given.
     pub fn band_average_of(cells: &[f64], columns: &[f64], source: Option<&[f64]>) -> f64 {
         let t = columns.len().max(1);
@@ -797,7 +808,7 @@ impl SpectralScene {
     }
 
     /// The coefficients of channel `w` at fraction `f` of `layer` (see
-    /// [`SpectralScene::fraction`]).
+    /// [`Scene::fraction`]).
     fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointCoefficients {
         if let Some(c) = spectra.coefficients.get(w * (self.levels_km.len() - 1) + layer) {
             return *c;
@@ -890,16 +901,22 @@ impl SpectralScene {
         }
     }
 
-    /// One sample of the diffuse Stokes radiance at every wavelength and
-    /// albedo, arriving from `view`, referred to the axis `e1` (see
-    /// `integrator::Scene::radiance_sample`).
-    pub fn radiance_sample(
-        &self,
-        altitude_km: f64,
-        view: DVec3,
-        e1: DVec3,
-        sampler: &mut Sampler,
-    ) -> SpectralRadiances {
+    /// Position of an observer at `altitude_km` (on the z axis).
+    pub fn observer_position(&self, altitude_km: f64) -> DVec3 {
+        self.geometry.observer_position(altitude_km)
+    }
+
+    /// The number of values a sample gives: channels × albedos.
+    pub fn value_count(&self) -> usize {
+        self.channels.len() * self.albedos.len().min(MAX_ALBEDOS)
+    }
+
+    /// One sample of the diffuse Stokes radiance arriving at the observer at
+    /// `altitude_km` from viewing direction `view` (unit, observer frame),
+    /// referred to the axis `e1` (unit, ⟂ `view`; e.g. the meridian axis,
+    /// see [`crate::stokes_frame`]), at every channel and albedo, into
+    /// `out[channel·albedos + albedo]` ([`Scene::value_count`] values).
+    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, e1: DVec3, sampler: &mut Sampler, out: &mut [Stokes]) {
         WORK.with_borrow_mut(|work| {
             let Work { path, spare, spectra } = work;
             let spectra = match &self.fixed {
@@ -934,25 +951,20 @@ impl SpectralScene {
                     }
                 }
             }
-            let mut values = path.radiance.clone();
+            out.copy_from_slice(&path.radiance);
             if self.source.is_some() {
-                for (w, per_albedo) in values.chunks_mut(albedos).enumerate() {
+                for (w, per_albedo) in out.chunks_mut(albedos).enumerate() {
                     for s in per_albedo {
                         *s = *s * spectra.source[w];
                     }
                 }
-            }
-            SpectralRadiances {
-                values,
-                wavelengths: n,
-                albedos,
             }
         })
     }
 
     /// Follows a path from `ray` to its end. With a `spare` path to split
     /// into and [`Settings::first_vertex_splitting`], the sensor's first
-    /// vertex is split as in the single-wavelength tracer: a flight toward
+    /// vertex is split: a forced flight toward
     /// a reflecting ground follows both ends (the ground with weight
     /// e^(−τ_λ) at every λ, a decision taken for all wavelengths alike, so
     /// no density changes; the collision forced), and the first scattering
@@ -1445,8 +1457,8 @@ impl SpectralScene {
     /// depths), every channel from one point. The point is drawn from the
     /// mixture q = (1/K)·Σ_k q_k over the K ≤ 2 followed channels (the
     /// least and the most extinct, with their centre wavelengths' optics,
-    /// [`SunFollow`]), each q_k the defensive mixture of the
-    /// single-wavelength tracer, α·q_sun,k + (1 − α)·q_flight,k with
+    /// [`SunFollow`]), each q_k a defensive mixture,
+    /// α·q_sun,k + (1 − α)·q_flight,k with
     /// q_sun,k ∝ c̄·e^(−τ_k)·e^(−τ̃_sun,k) and q_flight,k ∝ c̄·e^(−τ_k),
     /// c̄ the mean σ_s·P11 at the sun's centre, piecewise exponential over
     /// runs of the flight's segments ([`FlightDensity`]; α = 0.8). Channel w scores

@@ -39,7 +39,7 @@ pub fn sun_csv(job: &Job, task: &Task, camera: Option<&Camera>) -> String {
         let (t, e) = match &bands {
             Some(scene) => (scene.direct_normal(h, w, false), scene.direct_normal(h, w, true)),
             None => {
-                let t = job.scene_for(task, w).direct_transmittance(h);
+                let t = job.scene_for(task, w).direct_normal(h, 0, false);
                 (t, t * job.unit_scale(lambda))
             }
         };

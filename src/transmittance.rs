@@ -29,7 +29,7 @@
 //! Bands (`compute_bands`): the band average of T(λ), exact for the layered
 //! medium bands use: one column per extinction term along the line of
 //! sight, then the mean over the band's cells of e^(−Σ response·column)
-//! (`SpectralScene::band_average`).
+//! (`Scene::band_average`).
 
 use std::ops::ControlFlow;
 
@@ -39,7 +39,7 @@ use rayon::prelude::*;
 use crate::medium::Medium;
 use crate::sampler::Sampler;
 use crate::shell::Geometry;
-use crate::spectral::SpectralScene;
+use crate::spectral::Scene;
 use crate::tracking::{self, Ray};
 
 /// The sky model's maximum distance to the edge of the atmosphere (km).
@@ -342,7 +342,7 @@ pub fn compute(
 /// The band-averaged table of one task (see the module docs): `scene`'s
 /// channels and terms, from an observer at `observer_km`; no standard
 /// errors (exact).
-pub fn compute_bands(spec: &TransmittanceSpec, scene: &SpectralScene, observer_km: f64) -> Table {
+pub fn compute_bands(spec: &TransmittanceSpec, scene: &Scene, observer_km: f64) -> Table {
     let geometry = scene.geometry;
     let levels = scene.levels_km();
     let n_d = spec.grid.distances_km.len();
@@ -359,7 +359,7 @@ pub fn compute_bands(spec: &TransmittanceSpec, scene: &SpectralScene, observer_k
                     Some(columns) => (
                         cells
                             .iter()
-                            .map(|c| SpectralScene::band_average_of(c, &columns, None))
+                            .map(|c| Scene::band_average_of(c, &columns, None))
                             .collect(),
                         false,
                     ),

@@ -20,16 +20,13 @@ use std::time::{Duration, Instant};
 use crate::camera::Camera;
 use crate::error::Result;
 use crate::film::{self, ActivePixels, ImageLayer, PixelSampling};
-use glam::DVec3;
 
-use crate::integrator::{Radiances, Scene};
 use crate::job::{Job, Sensor, Task};
 use crate::output::{FluxRow, RadianceRow};
-use crate::render::{self, BLOCK, Fluxes, RenderResult, SampleValues, Tally};
-use crate::sampler::Sampler;
+use crate::render::{self, BLOCK, Fluxes, RenderResult, Tally};
 use crate::shard::Shard;
 use crate::sky_image::SkyImage;
-use crate::spectral::{SpectralRadiances, SpectralScene};
+use crate::spectral::Scene;
 
 /// Where an estimate's radiance comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -378,14 +375,18 @@ pub enum Outcome {
 struct Scenes<'a> {
     job: &'a Job,
     task: &'a Task,
-    shared: Option<SpectralScene>,
+    shared: Option<Scene>,
     single: Vec<Option<Scene>>,
 }
 
 impl Scenes<'_> {
-    fn single(&mut self, w: usize) -> &Scene {
+    /// The scene of an estimate's channels: all of them, or one alone.
+    fn of(&mut self, source: Source) -> &Scene {
         let (job, task) = (self.job, self.task);
-        self.single[w].get_or_insert_with(|| job.scene_for(task, w))
+        match source {
+            Source::Shared => self.shared.as_ref().expect("a shared layout has a shared scene"),
+            Source::Wavelength(w) => self.single[w].get_or_insert_with(|| job.scene_for(task, w)),
+        }
     }
 }
 
@@ -415,7 +416,7 @@ pub fn run(
     job: &Job,
     task: &Task,
     layout: &Layout,
-    shared: Option<SpectralScene>,
+    shared: Option<Scene>,
     state: &mut UnitState,
     control: &Control,
 ) -> Result<Outcome> {
@@ -460,31 +461,16 @@ pub fn run(
             };
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
+            let scene = scenes.of(est.kind.source());
             match est.kind {
-                EstimateKind::Direction { source, .. } | EstimateKind::Pixels { source } => match source {
-                    Source::Shared => {
-                        let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                        radiance_wave(scene, &context, &est, work.clone(), tallies);
-                    }
-                    Source::Wavelength(w) => {
-                        let scene = scenes.single(w);
-                        radiance_wave(scene, &context, &est, work.clone(), tallies);
-                    }
-                },
-                EstimateKind::Flux { source, up } => match source {
-                    Source::Shared => {
-                        let scene = scenes.shared.as_ref().expect("a shared layout has a spectral scene");
-                        render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
-                            render::flux_sample_spectral(scene, altitude_km, up, s)
-                        })
-                    }
-                    Source::Wavelength(w) => {
-                        let scene = scenes.single(w);
-                        render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s| {
-                            render::flux_sample(scene, altitude_km, up, s)
-                        })
-                    }
-                },
+                EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } => {
+                    radiance_wave(scene, &context, &est, work.clone(), tallies)
+                }
+                EstimateKind::Flux { up, .. } => {
+                    render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s, out| {
+                        render::flux_sample(scene, altitude_km, up, s, out)
+                    })
+                }
             }
             state.done[e] += work.end - work.start;
             let paths = layout.paths_of(e, &work);
@@ -505,28 +491,6 @@ pub fn run(
     Ok(Outcome::Complete)
 }
 
-/// A scene that gives a sample's radiance along a viewing direction: one
-/// wavelength ([`Scene`]) or all of them along shared paths
-/// ([`SpectralScene`]).
-trait RadianceSource: Sync {
-    type Values: SampleValues;
-    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> Self::Values;
-}
-
-impl RadianceSource for Scene {
-    type Values = Radiances;
-    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> Radiances {
-        self.radiance_sample(altitude_km, v, e1, s)
-    }
-}
-
-impl RadianceSource for SpectralScene {
-    type Values = SpectralRadiances;
-    fn sample(&self, altitude_km: f64, v: DVec3, e1: DVec3, s: &mut Sampler) -> SpectralRadiances {
-        self.radiance_sample(altitude_km, v, e1, s)
-    }
-}
-
 /// What a wave needs besides its scene and its work: the job and task, the
 /// layout and the pixels' solid angles (empty for directions).
 struct RunContext<'a> {
@@ -538,8 +502,8 @@ struct RunContext<'a> {
 
 /// One wave (`work`) of a direction's sample blocks or of an image's items,
 /// added to `tallies`.
-fn radiance_wave<S: RadianceSource>(
-    scene: &S,
+fn radiance_wave(
+    scene: &Scene,
     context: &RunContext,
     est: &Estimate,
     work: std::ops::Range<u64>,
@@ -556,8 +520,8 @@ fn radiance_wave<S: RadianceSource>(
         (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
             let dir = directions[direction];
             let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
-            render::tally_blocks(work, layout.samples, est.keys, tallies, |s| {
-                scene.sample(altitude_km, v, e1, s)
+            render::tally_blocks(work, layout.samples, est.keys, tallies, |s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         }
         (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
@@ -571,8 +535,8 @@ fn radiance_wave<S: RadianceSource>(
                 seed: est.keys[0],
                 key: est.keys[1],
             };
-            film::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s| {
-                scene.sample(altitude_km, v, e1, s)
+            film::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         }
         _ => unreachable!("direction estimates belong to directions sensors, pixels to images"),
@@ -627,7 +591,7 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
             k * match &band_scene {
                 // A band's direct irradiance is its band average.
                 Some(scene) => scene.direct_horizontal(altitude_km, w),
-                None => render::direct_horizontal(&job.scene_for(task, w), altitude_km),
+                None => job.scene_for(task, w).direct_horizontal(altitude_km, 0),
             }
         });
         for (a, &albedo) in spec.albedos.iter().enumerate() {

@@ -24,9 +24,9 @@ fn pseudo_spherical_direct_beam_is_the_spherical_one() {
     assert_eq!(ps.pseudo_spherical_radius_km(), Some(6370.0));
     assert!(ps.plane_parallel_transport() && pp.plane_parallel_transport() && !sph.plane_parallel_transport());
     for z in [0.0, 3.7, 10.0] {
-        let t_ps = ps.scene(0).direct_transmittance(z);
-        let t_sph = sph.scene(0).direct_transmittance(z);
-        let t_pp = pp.scene(0).direct_transmittance(z);
+        let t_ps = ps.scene(0).direct_normal(z, 0, false);
+        let t_sph = sph.scene(0).direct_normal(z, 0, false);
+        let t_pp = pp.scene(0).direct_normal(z, 0, false);
         assert!((t_ps / t_sph - 1.0).abs() < 1e-12, "{z}: {t_ps} vs {t_sph}");
         // Plane-parallel: exp(−τ(z)/μ0) exactly.
         let atm = &pp.atmosphere;
@@ -46,7 +46,7 @@ fn pseudo_spherical_direct_beam_is_the_spherical_one() {
     let two = job(&text("pseudo_spherical").replace("[540.0]", "[540.0, 600.0]"));
     let shared = two.spectral_scene(&two.tasks[0]).expect("shared paths");
     for z in [0.0, 3.7, 10.0] {
-        let t_ps = ps.scene(0).direct_transmittance(z);
+        let t_ps = ps.scene(0).direct_normal(z, 0, false);
         let t_shared = shared.direct_normal(z, 0, false);
         assert!((t_shared / t_ps - 1.0).abs() < 1e-12, "{z}: {t_shared} vs {t_ps}");
     }

@@ -142,7 +142,7 @@ fn render_slab(
         mu0.acos().to_degrees()
     );
     let job = job(&text);
-    render_directions_all(&job.scene(0), level, dirs, n, job.render.seed, 0)
+    render_directions_all(&job.scene(0), level, dirs, n, job.render.seed, 0).swap_remove(0)
 }
 
 #[test]

@@ -7,7 +7,7 @@
 
 mod common;
 
-use atmosim::render::{Tally, render_directions_all, render_directions_spectral};
+use atmosim::render::{Tally, render_directions_all};
 use atmosim::solar::SolarSpectrum;
 use common::{Comparison, directions, job};
 
@@ -81,7 +81,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
         let banded = job(&text);
         let scene = banded.spectral_scene(&banded.tasks[0]).expect("bands use shared paths");
         let h = banded.observer_altitude_km;
-        let shared = render_directions_spectral(&scene, h, &dirs, samples, 3, 0);
+        let shared = render_directions_all(&scene, h, &dirs, samples, 3, 0);
         for (w, &(centre, width)) in channels.iter().enumerate() {
             // The reference: quadrature over single-wavelength renders.
             let nodes: Vec<(f64, f64)> = if width > 0.0 {
@@ -98,7 +98,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
                  [observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n"
             ));
             let renders: Vec<_> = (0..nodes.len())
-                .map(|k| render_directions_all(&mono.scene(k), h, &dirs, samples, 100 + k as u64, 0))
+                .map(|k| render_directions_all(&mono.scene(k), h, &dirs, samples, 100 + k as u64, 0).swap_remove(0))
                 .collect();
             for (a, per_albedo) in shared[w].iter().enumerate() {
                 for (d, x) in per_albedo.iter().enumerate() {
@@ -139,9 +139,9 @@ fn a_wide_band_differs_from_its_centre_wavelength() {
     let centre = job(&format!("{base}[spectrum]\nwavelengths_nm = [380.0]\n"));
     let dirs = &directions(&DIRECTIONS)[..1];
     let h = band.observer_altitude_km;
-    let b = render_directions_spectral(&band.spectral_scene(&band.tasks[0]).unwrap(), h, dirs, 100_000, 1, 0);
+    let b = render_directions_all(&band.spectral_scene(&band.tasks[0]).unwrap(), h, dirs, 100_000, 1, 0);
     let c = render_directions_all(&centre.scene(0), h, dirs, 100_000, 2, 0);
-    let (x, y) = (&b[0][0][0], &c[0][0]);
+    let (x, y) = (&b[0][0][0], &c[0][0][0]);
     let z = (x.mean()[0] - y.mean()[0]) / x.standard_error()[0].hypot(y.standard_error()[0]);
     assert!(z.abs() > 5.0, "band {} vs centre {}: z = {z}", x.mean()[0], y.mean()[0]);
 }
@@ -183,7 +183,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
     let samples = common::samples(30_000);
     let dirs = directions(&DIRECTIONS);
     let h = banded.observer_altitude_km;
-    let shared = render_directions_spectral(
+    let shared = render_directions_all(
         &banded.spectral_scene(&banded.tasks[0]).unwrap(),
         h,
         &dirs,
@@ -201,7 +201,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
         let list = nodes.iter().map(|n| format!("{n}")).collect::<Vec<_>>().join(", ");
         let single = job(&format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n"));
         let renders: Vec<_> = (0..nodes.len())
-            .map(|k| render_directions_all(&single.scene(k), h, &dirs, samples, 200 + k as u64, 0))
+            .map(|k| render_directions_all(&single.scene(k), h, &dirs, samples, 200 + k as u64, 0).swap_remove(0))
             .collect();
         for (a, per_albedo) in shared[w].iter().enumerate() {
             for (d, x) in per_albedo.iter().enumerate() {
@@ -355,7 +355,7 @@ fn band_sun_tables_average_the_direct_beam_over_the_band() {
             let mono = job(&format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n"));
             let h = mono.observer_altitude_km;
             let t: Vec<f64> = (0..nodes.len())
-                .map(|w| mono.scene(w).direct_transmittance(h))
+                .map(|w| mono.scene(w).direct_normal(h, 0, false))
                 .collect();
             let mean_t = t.iter().sum::<f64>() / t.len() as f64;
             let mean_e = t.iter().zip(&nodes).map(|(t, &l)| t * mono.unit_scale(l)).sum::<f64>() / t.len() as f64;

@@ -15,6 +15,7 @@
 mod common;
 
 use atmosim::job::Job;
+use atmosim::medium::{Medium, MediumModel};
 use atmosim::phase::PhaseFunction;
 use atmosim::render::Direction;
 use atmosim::tracking::{self, Ray, WalkEnd};
@@ -45,7 +46,8 @@ fn twilight_job(ozone: &str, elevation_deg: f64, sun_sampling: &str) -> Job {
 /// quadrature (4000 points per layer segment: converged to ~1e-6).
 fn quadrature(job: &Job, altitude_km: f64, d: &Direction) -> f64 {
     let scene = job.scene(0);
-    let (medium, geometry, sun) = (&scene.medium, &scene.geometry, scene.sun.direction);
+    let medium = &Medium::new(&job.atmosphere, 0, MediumModel::Layered, 1.0);
+    let (geometry, sun) = (&scene.geometry, scene.sun.direction);
     let v = d.vector();
     let origin = scene.observer_position(altitude_km);
     let layer = tracking::layer_at(medium.levels_km(), altitude_km, v.dot(geometry.up(origin))).unwrap();

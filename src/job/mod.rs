@@ -11,15 +11,13 @@ use serde::Deserialize;
 
 use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
-use crate::integrator::Scene;
-use crate::medium::{Medium, MediumModel};
+use crate::medium::MediumModel;
 use crate::ozone::OzoneModel;
 use crate::rayleigh::RayleighModel;
 use crate::shell::Geometry;
 use crate::solar::SolarSpectrum;
-use crate::spectral::{Channel, MediumSettings, SpectralScene};
+use crate::spectral::{Channel, MediumSettings, Scene};
 use crate::sun::Sun;
-use crate::sun_depth::SunDepth;
 use crate::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
@@ -219,12 +217,15 @@ impl Job {
     /// The shared-spectral-path scene of a task: all channels at once, when
     /// the job has bands, or more than one wavelength with
     /// `render.shared_wavelengths` on (see `spectral`); `None` otherwise.
-    /// Sun-aware connections as for one wavelength (`render.sun_sampling`).
-    pub fn spectral_scene(&self, task: &Task) -> Option<SpectralScene> {
+    pub fn spectral_scene(&self, task: &Task) -> Option<Scene> {
         let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1);
-        if !wanted {
-            return None;
-        }
+        wanted.then(|| self.scene_of(task, self.channels()))
+    }
+
+    /// The scene of `channels` for a task, with the job's albedos, medium
+    /// and settings. Sun-aware connections as `render.sun_sampling` asks,
+    /// where σ is constant per layer and flights are forced.
+    fn scene_of(&self, task: &Task, channels: Vec<Channel>) -> Scene {
         let r = &self.render;
         let medium = MediumSettings {
             shapes: match r.medium {
@@ -234,7 +235,6 @@ impl Job {
             majorant_scale: r.majorant_scale,
             pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
         };
-        // Sun-aware connections need σ constant per layer and forced flights.
         let sun_aware = r
             .settings
             .sun_sampling
@@ -242,21 +242,21 @@ impl Job {
             && r.settings.forced_collisions
             && medium.shapes.is_none()
             && r.majorant_scale == 1.0;
-        let scene = SpectralScene::new(
+        let scene = Scene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
             task.atmosphere.terms.clone(),
-            self.channels(),
+            channels,
             task.sun,
             r.albedos.clone(),
             r.settings,
             medium,
         );
         let scene = if sun_aware { scene.with_sun_aware() } else { scene };
-        Some(match &self.solar {
+        match &self.solar {
             Some(solar) if self.tracer_weights_by_source() => scene.with_source(solar.clone()),
             _ => scene,
-        })
+        }
     }
 
     /// Whether the tracer itself weights each path by E0 at the
@@ -330,30 +330,10 @@ impl Job {
         self.scene_for(&self.tasks[0], w)
     }
 
-    /// The scene of a task at wavelength index `w`, with all the job's
+    /// The scene of a task at channel index `w` alone, with all the job's
     /// albedos.
     pub fn scene_for(&self, task: &Task, w: usize) -> Scene {
-        let medium = Medium::new(&task.atmosphere, w, self.render.medium, self.render.majorant_scale);
-        let settings = self.render.settings;
-        let plane_parallel = self.plane_parallel_transport();
-        let sun_aware = settings.sun_sampling.is_sun_aware(task.sun.zenith_deg, plane_parallel);
-        let sun_depth = (sun_aware && settings.forced_collisions && medium.is_piecewise_constant()).then(|| {
-            SunDepth::new(
-                &medium,
-                &self.geometry(),
-                task.sun.direction,
-                self.pseudo_spherical_radius_km().is_some(),
-            )
-        });
-        Scene {
-            geometry: self.geometry(),
-            medium,
-            sun: task.sun,
-            albedos: self.render.albedos.clone(),
-            settings,
-            sun_depth,
-            pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
-        }
+        self.scene_of(task, vec![self.channels()[w]])
     }
 
     /// The built-in default job: US-standard atmosphere, Bogumil ozone,

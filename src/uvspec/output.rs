@@ -75,7 +75,9 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
         let uu = if directions.is_empty() {
             Vec::new()
         } else {
-            render_directions_all(&scene, z, &directions, samples, seed, key).swap_remove(0)
+            render_directions_all(&scene, z, &directions, samples, seed, key)
+                .swap_remove(0)
+                .swap_remove(0)
         };
         let u0u: Vec<Tally> = input
             .umu
@@ -83,32 +85,36 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
             .enumerate()
             .map(|(k, &umu)| {
                 let theta = input.direction(umu, 0.0).view_zenith_deg;
-                tally(samples, [seed, key, U0U_KEY + k as u64], 1, |s| {
-                    let phi = 360.0 * s.next_f64();
-                    let d = Direction {
-                        view_zenith_deg: theta,
-                        azimuth_deg: phi,
-                    };
-                    scene.radiance_sample(z, d.vector(), d.meridian_axis(), s)
-                })[0]
+                tally(
+                    samples,
+                    [seed, key, U0U_KEY + k as u64],
+                    scene.value_count(),
+                    |s, out| {
+                        let phi = 360.0 * s.next_f64();
+                        let d = Direction {
+                            view_zenith_deg: theta,
+                            azimuth_deg: phi,
+                        };
+                        scene.radiance_sample(z, d.vector(), d.meridian_axis(), s, out)
+                    },
+                )[0]
             })
             .collect();
         let mut fluxes = render_fluxes_all(&scene, z, samples, seed, key).swap_remove(0);
-        let direct_transmittance = scene.direct_transmittance(z);
+        let direct_transmittance = scene.direct_normal(z, 0, false);
         fluxes.e_dir = direct_transmittance * task.sun.direction.z.max(0.0);
         // Mean intensity: uniform directions over each hemisphere, (1/4π)·2π·⟨L⟩.
         let uavg = |stream: u64, sign: f64| {
-            let t = tally(samples, [seed, key, stream], 1, |s| {
-                let u = s.next2();
+            let t = tally(samples, [seed, key, stream], scene.value_count(), |s, out| {
+                let u: [f64; 2] = s.next2();
                 let cos_t = sign * u[0];
                 let sin_t = (1.0 - u[0] * u[0]).max(0.0).sqrt();
                 let phi = 2.0 * PI * u[1];
                 let v = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-                let mut l = scene.radiance_sample(z, v, meridian_frame(v, phi).0, s);
-                for x in l.values.iter_mut() {
+                scene.radiance_sample(z, v, meridian_frame(v, phi).0, s, out);
+                for x in out.iter_mut() {
                     *x = Stokes::new(0.5 * x.0[0], 0.0, 0.0, 0.0);
                 }
-                l
             })[0];
             (t.mean()[0], t.standard_error()[0])
         };

@@ -86,8 +86,9 @@ fn compare(
     for task in &job.tasks {
         let z = task.observer_altitude_km;
         let scene = job.scene_for(task, 0);
-        let tallies =
-            render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0)).swap_remove(0);
+        let tallies = render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0))
+            .swap_remove(0)
+            .swap_remove(0);
         for ((umu, phi, d), t) in directions.iter().zip(&tallies) {
             let row = reference
                 .rows
