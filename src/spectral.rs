@@ -1157,6 +1157,32 @@ impl Scene {
         end
     }
 
+    /// Every channel's optical depth along a shadow ray to the top into
+    /// `d.tau`; false (and nothing computed) when it meets the ground
+    /// first. Through spherical shells of the layered medium in closed
+    /// form, the half chords summed with the steps directly for a single
+    /// basis vector (no chords kept: nothing is located along a shadow ray).
+    fn shadow_depths(&self, d: &mut Depths, spectra: &ChannelSpectra, geometry: &Geometry, ray: &Ray) -> bool {
+        let Geometry::Spherical { radius_km } = *geometry else {
+            return matches!(self.exit_depths(d, spectra, geometry, ray), Some(WalkEnd::Top { .. }));
+        };
+        if self.shapes.is_some() || self.basis_len != 1 {
+            return matches!(self.exit_depths(d, spectra, geometry, ray), Some(WalkEnd::Top { .. }));
+        }
+        let levels = &self.levels_km;
+        let exit = tracking::shell_exit(radius_km, levels, ray);
+        if exit.ground {
+            return false;
+        }
+        let steps = &self.basis_steps;
+        let sum = |r: &std::ops::Range<usize>| {
+            tracking::weighted_half_chords(radius_km, &levels[r.clone()], &steps[r.clone()], exit.h)
+        };
+        d.tau_basis[0] = -exit.b * self.basis_sigma[ray.layer] + 2.0 * sum(&exit.twice) + sum(&exit.once);
+        Self::combine(spectra, &d.tau_basis, &mut d.tau);
+        true
+    }
+
     /// Samples the flight's outcome with the path's hero wavelength; every
     /// wavelength's integrand and density go in over the hero's density.
     /// `path.ray` holds the depths to the flight's `end`.
@@ -1208,9 +1234,13 @@ impl Scene {
                 return Outcome::Escaped;
             };
             // The ground, reached with probability e^(−τ) at every λ.
-            let hero_p = (-path.ray.tau[hero]).exp();
+            let tau_hero = path.ray.tau[hero];
             for w in 0..n {
-                let k = (-path.ray.tau[w]).exp() / hero_p;
+                let k = if w == hero {
+                    1.0
+                } else {
+                    (tau_hero - path.ray.tau[w]).exp()
+                };
                 path.throughput[w] = path.throughput[w] * k;
                 path.scale_density(w, k);
             }
@@ -1228,30 +1258,31 @@ impl Scene {
             Self::combine(spectra, &path.ray.tau_basis, &mut path.tau_hit);
         }
         let geometry = &self.geometry;
-        // The collision's density per wavelength, over the hero's.
+        // The collision's density per wavelength, over the hero's: the
+        // hero's e^(−τ) cancels, so each channel's transmittance comes in
+        // relative to the hero's (none to compute for the hero).
         let f = self.fraction(geometry, layer, ray.origin + t * ray.dir);
-        let density = |sigma_t: f64, transmittance: f64, p: f64| {
-            let q = sigma_t * transmittance;
+        let density = |sigma_t: f64, p: f64| {
             if !forced {
-                q
+                sigma_t
             } else if p > 0.0 {
-                q / p
+                sigma_t / p
             } else {
                 0.0
             }
         };
-        let hero_density = density(
-            self.sigma_t_point(spectra, layer, hero, f),
-            (-path.tau_hit[hero]).exp(),
-            path.forced[hero],
-        );
-        let inv_hero = 1.0 / hero_density;
+        let inv_hero = 1.0 / density(self.sigma_t_point(spectra, layer, hero, f), path.forced[hero]);
+        let tau_hero = path.tau_hit[hero];
         path.mixtures.clear();
         for w in 0..n {
             let c = self.coefficients(spectra, layer, w, f);
             path.mixtures.push(phase_mixture(&c));
-            let transmittance = (-path.tau_hit[w]).exp();
-            let k = density(c.sigma_t, transmittance, path.forced[w]) * inv_hero;
+            let transmittance = if w == hero {
+                1.0
+            } else {
+                (tau_hero - path.tau_hit[w]).exp()
+            };
+            let k = density(c.sigma_t, path.forced[w]) * transmittance * inv_hero;
             path.throughput[w] = path.throughput[w] * (c.sigma_s() * transmittance * inv_hero);
             path.scale_density(w, k);
         }
@@ -1545,11 +1576,13 @@ impl Scene {
         );
         match self.settings.sun_transmittance {
             SunTransmittance::Analytic => {
-                let end = self.exit_depths(&mut path.shadow, spectra, &geometry, &ray);
+                if !self.shadow_depths(&mut path.shadow, spectra, &geometry, &ray) {
+                    return false;
+                }
                 for (tr, tau) in path.shadow_tr.iter_mut().zip(&path.shadow.tau) {
                     *tr = (-tau).exp();
                 }
-                matches!(end, Some(WalkEnd::Top { .. }))
+                true
             }
             SunTransmittance::RatioTracking => {
                 let n = self.channels.len();
