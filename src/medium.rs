@@ -1,5 +1,7 @@
-//! The medium the tracer walks through at one wavelength: per-layer
-//! coefficients, the density model inside a layer and the majorant.
+//! One wavelength's medium: per-layer coefficients, the density model
+//! inside a layer and the majorant; what transmittance tables track
+//! through (the path tracer, `spectral`, holds the same models for any
+//! number of channels, on the atmosphere's terms).
 //!
 //! - `layered` (default, libRadtran-compatible): coefficients constant in
 //!   each layer; the majorant is σ_t itself, so every tentative collision is
@@ -55,8 +57,6 @@ pub struct Medium {
     /// below the ground and above the top (`levels_km.len()` entries): the
     /// coefficients of the closed-form optical depth through shells.
     steps: Vec<f64>,
-    /// Whether σ_t is constant per layer and equal to the majorant.
-    piecewise_constant: bool,
 }
 
 /// Gauss–Legendre nodes and weights on [0, 1] (8 points, exact for
@@ -103,7 +103,7 @@ impl Medium {
         )
     }
 
-    /// The medium with its derived fields (steps, piecewise flag).
+    /// The medium with its derived fields (steps).
     fn assemble(
         levels_km: Vec<f64>,
         sigma_t_layer: Vec<f64>,
@@ -112,7 +112,6 @@ impl Medium {
         sigma_maj: Vec<f64>,
     ) -> Medium {
         let steps = density_steps(&sigma_maj);
-        let piecewise_constant = shapes.is_none() && sigma_maj.iter().zip(&sigma_t_layer).all(|(m, t)| m == t);
         Medium {
             levels_km,
             layers,
@@ -120,7 +119,6 @@ impl Medium {
             sigma_maj,
             sigma_t_layer,
             steps,
-            piecewise_constant,
         }
     }
 
@@ -183,18 +181,6 @@ impl Medium {
     #[inline]
     pub fn sigma_majorants(&self) -> &[f64] {
         &self.sigma_maj
-    }
-
-    /// True when σ_t equals the majorant in layer `i` (layered, unscaled).
-    pub fn is_exact_majorant(&self, i: usize) -> bool {
-        self.shapes.is_none() && self.sigma_maj[i] == self.sigma_t_layer[i]
-    }
-
-    /// True when σ_t is constant in every layer and equal to the majorant,
-    /// so optical depth along a ray is exact and cheap.
-    #[inline]
-    pub fn is_piecewise_constant(&self) -> bool {
-        self.piecewise_constant
     }
 
     /// The majorant's step at each level, σ_maj(k − 1) − σ_maj(k) (zero

@@ -102,7 +102,7 @@ use crate::spectral_terms::{Response, SpectralTerms, TermShape};
 use crate::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sun::Sun;
 use crate::sun_depth::SunDepth;
-use crate::tracking::{self, Ray, Segment, ShellExit, WalkEnd};
+use crate::tracking::{self, FlightEnd, Ray, Segment, ShellExit, WalkEnd};
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
 pub const DIRECT_CELL_NM: f64 = 0.05;
@@ -1209,25 +1209,26 @@ impl Scene {
         let n = self.channels.len();
         let hero = path.hero;
         let exact = self.exact_majorant();
-        // The hero's majorant depth to the first tentative collision.
-        let left = if forced {
-            for (p, t) in path.forced.iter_mut().zip(&path.ray.tau) {
-                *p = -(-t).exp_m1();
-            }
-            if path.forced[hero] <= 0.0 {
-                return Outcome::Escaped;
-            }
-            tracking::forced_distance(sampler.next_f64(), path.forced[hero])
+        // The collision: by inverting the hero's optical depth where σ_t
+        // is the majorant (the first tentative collision is real; rounding
+        // may leave a forced one beyond the end: the end), else by delta
+        // tracking. `hero_depth` is the hero's depth to it (exact majorant).
+        let (hit, hero_depth) = if exact {
+            let target = if forced {
+                for (p, t) in path.forced.iter_mut().zip(&path.ray.tau) {
+                    *p = -(-t).exp_m1();
+                }
+                if path.forced[hero] <= 0.0 {
+                    return Outcome::Escaped;
+                }
+                tracking::forced_distance(sampler.next_f64(), path.forced[hero])
+            } else {
+                -(1.0 - sampler.next_f64()).ln()
+            };
+            let inside = forced || target < path.ray.tau[hero];
+            (inside.then(|| self.locate(path, spectra, ray, target)), target)
         } else {
-            -(1.0 - sampler.next_f64()).ln()
-        };
-        let hit = if exact {
-            // σ_t is the majorant: the first tentative collision is real,
-            // found by inverting the hero's optical depth (or beyond the
-            // end: rounding leaves a forced one there at the end).
-            (forced || left < path.ray.tau[hero]).then(|| self.locate(path, spectra, ray, left))
-        } else {
-            self.delta_track(path, spectra, ray, left, sampler)
+            (self.delta_track(path, spectra, ray, sampler), f64::NAN)
         };
         let Some((t, layer)) = hit else {
             let WalkEnd::Ground { t } = end else {
@@ -1247,10 +1248,10 @@ impl Scene {
             path.densities_changed();
             return Outcome::Ground { t };
         };
-        // Every channel's depth to the collision: the hero's is `left`
-        // where σ_t is the majorant.
+        // Every channel's depth to the collision (from the basis, walked
+        // again where σ_t is the majorant and there are other channels).
         if exact && n == 1 {
-            path.tau_hit[hero] = left;
+            path.tau_hit[hero] = hero_depth;
         } else {
             if exact {
                 self.basis_depths_to(path, ray, t);
@@ -1304,8 +1305,9 @@ impl Scene {
     }
 
     /// Every basis vector's depth along the flight to distance `t` into
-    /// `path.ray.tau_basis` (σ constant per layer).
+    /// `path.ray.tau_basis`.
     fn basis_depths_to(&self, path: &mut Path, ray: &Ray, t: f64) {
+        let geometry = &self.geometry;
         let Depths {
             tau_basis: tau,
             chords,
@@ -1314,7 +1316,7 @@ impl Scene {
         } = &mut path.ray;
         tau.fill(0.0);
         let visit = |s: Segment| {
-            self.accumulate(tau, s.layer, s.t1.min(t) - s.t0);
+            self.accumulate_along(tau, geometry, ray, s.layer, s.t0, s.t1.min(t));
             if s.t1 >= t {
                 ControlFlow::Break(())
             } else {
@@ -1326,49 +1328,34 @@ impl Scene {
                 let _ = exit.try_for_each_segment(chords, visit);
             }
             None => {
-                tracking::walk(&self.geometry, &self.levels_km, ray, visit);
+                tracking::walk(geometry, &self.levels_km, ray, visit);
             }
         }
     }
 
     /// Delta tracking of the hero against its majorant (the smooth medium,
-    /// or inflated majorants), the first tentative collision at majorant
-    /// depth `left`: the first real collision, with every basis vector's
-    /// depth to it in `path.ray.tau_basis`, or `None` past the end.
+    /// or inflated majorants; [`tracking::sample_t_maj`]): the first real
+    /// collision, with every basis vector's depth to it in
+    /// `path.ray.tau_basis`, or `None` past the end.
     fn delta_track(
         &self,
         path: &mut Path,
         spectra: &ChannelSpectra,
         ray: &Ray,
-        mut left: f64,
         sampler: &mut Sampler,
     ) -> Option<(f64, usize)> {
         let hero = path.hero;
         let geometry = &self.geometry;
-        let mut hit = None;
-        let tau = &mut path.ray.tau_basis;
-        tau.fill(0.0);
-        tracking::walk(geometry, &self.levels_km, ray, |s| {
-            let majorant = self.majorant(spectra, s.layer, hero);
-            let mut t0 = s.t0;
-            while majorant > 0.0 && left < majorant * (s.t1 - t0) {
-                let t = t0 + left / majorant;
-                let f = self.fraction(geometry, s.layer, ray.origin + t * ray.dir);
-                if sampler.next_f64() * majorant < self.sigma_t_point(spectra, s.layer, hero, f) {
-                    self.accumulate_along(tau, geometry, ray, s.layer, s.t0, t);
-                    hit = Some((t, s.layer));
-                    return ControlFlow::Break(());
-                }
-                t0 = t;
-                left = -(1.0 - sampler.next_f64()).ln();
-            }
-            if majorant > 0.0 {
-                left -= majorant * (s.t1 - t0);
-            }
-            self.accumulate_along(tau, geometry, ray, s.layer, s.t0, s.t1);
-            ControlFlow::Continue(())
+        let majorant = |layer| self.majorant(spectra, layer, hero);
+        let end = tracking::sample_t_maj(majorant, geometry, &self.levels_km, ray, sampler, |c, s| {
+            let f = self.fraction(geometry, c.layer, ray.origin + c.t * ray.dir);
+            s.next_f64() * c.sigma_maj >= self.sigma_t_point(spectra, c.layer, hero, f)
         });
-        hit
+        let FlightEnd::Collided(c) = end else {
+            return None;
+        };
+        self.basis_depths_to(path, ray, c.t);
+        Some((c.t, c.layer))
     }
 
     /// The current flight's segments into `path.segments`, and every basis
@@ -1585,36 +1572,24 @@ impl Scene {
                 true
             }
             SunTransmittance::RatioTracking => {
+                // A horizontal ray of a slab never leaves it.
+                if geometry == Geometry::PlaneParallel && ray.dir.z == 0.0 {
+                    return false;
+                }
                 let n = self.channels.len();
                 let tr = &mut path.shadow_tr;
                 tr.fill(1.0);
-                let mut left = -(1.0 - sampler.next_f64()).ln();
-                let mut alive = true;
-                let end = tracking::walk(&geometry, &self.levels_km, &ray, |seg| {
-                    let majorant = (0..n).map(|w| self.majorant(spectra, seg.layer, w)).fold(0.0, f64::max);
-                    if majorant <= 0.0 {
-                        return ControlFlow::Continue(());
+                let majorant = |layer| (0..n).map(|w| self.majorant(spectra, layer, w)).fold(0.0, f64::max);
+                let end = tracking::sample_t_maj(majorant, &geometry, &self.levels_km, &ray, sampler, |c, _| {
+                    let f = self.fraction(&geometry, c.layer, ray.origin + c.t * ray.dir);
+                    let mut alive = false;
+                    for (w, tr) in tr.iter_mut().enumerate() {
+                        *tr *= 1.0 - self.sigma_t_point(spectra, c.layer, w, f) / c.sigma_maj;
+                        alive |= *tr != 0.0;
                     }
-                    alive = seg.t1.is_finite();
-                    let mut t0 = seg.t0;
-                    while alive {
-                        let t = t0 + left / majorant;
-                        if t >= seg.t1 {
-                            left -= majorant * (seg.t1 - t0);
-                            return ControlFlow::Continue(());
-                        }
-                        let f = self.fraction(&geometry, seg.layer, ray.origin + t * ray.dir);
-                        alive = false;
-                        for (w, tr) in tr.iter_mut().enumerate() {
-                            *tr *= 1.0 - self.sigma_t_point(spectra, seg.layer, w, f) / majorant;
-                            alive |= *tr != 0.0;
-                        }
-                        t0 = t;
-                        left = -(1.0 - sampler.next_f64()).ln();
-                    }
-                    ControlFlow::Break(())
+                    alive
                 });
-                alive && matches!(end, WalkEnd::Top { .. })
+                matches!(end, FlightEnd::Top { .. })
             }
         }
     }

@@ -192,16 +192,17 @@ pub enum FlightEnd {
 /// the optical depth left over at a layer boundary carries into the next
 /// layer (memorylessness), so one variate is used per tentative collision.
 pub fn sample_t_maj(
-    medium: &Medium,
+    majorant: impl Fn(usize) -> f64,
     geometry: &Geometry,
+    levels_km: &[f64],
     ray: &Ray,
     sampler: &mut Sampler,
     mut on_collision: impl FnMut(&Collision, &mut Sampler) -> bool,
 ) -> FlightEnd {
     let mut tau_left = -(1.0 - sampler.next_f64()).ln();
     let mut hit = None;
-    let end = walk(geometry, medium.levels_km(), ray, |seg| {
-        let sigma = medium.sigma_maj(seg.layer);
+    let end = walk(geometry, levels_km, ray, |seg| {
+        let sigma = majorant(seg.layer);
         if sigma <= 0.0 {
             return ControlFlow::Continue(());
         }
@@ -233,154 +234,6 @@ pub fn sample_t_maj(
     }
 }
 
-/// Delta tracking: the next real collision along `ray`, or where the ray
-/// leaves the atmosphere.
-pub fn delta_track(medium: &Medium, geometry: &Geometry, ray: &Ray, sampler: &mut Sampler) -> FlightEnd {
-    sample_t_maj(medium, geometry, ray, sampler, |c, s| {
-        if medium.is_exact_majorant(c.layer) {
-            return false;
-        }
-        let z = geometry.altitude(ray.origin + c.t * ray.dir);
-        let p_real = medium.at(c.layer, z).sigma_t / c.sigma_maj;
-        s.next_f64() >= p_real
-    })
-}
-
-/// A free flight with forced collisions: where the flight ends and the
-/// weight the path carries for it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ForcedFlight {
-    pub end: FlightEnd,
-    pub weight: f64,
-    /// The probability 1 − e^(−τ) the collision was forced with (`None`
-    /// for an analog flight): distances for further points with the same
-    /// distribution come from [`forced_distance`].
-    pub forced_probability: Option<f64>,
-    /// For [`GroundEnd::Split`]: the ground the ray reaches, at distance
-    /// `t`, and the weight e^(−τ) of that second branch, which the caller
-    /// follows as well as the (forced) collision.
-    pub ground_branch: Option<(f64, f64)>,
-}
-
-/// What a forced flight does with a ray that reaches the ground.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GroundEnd {
-    /// A black ground: the collision is forced (weight 1 − e^(−τ)).
-    Absorbs,
-    /// A reflecting ground: the flight is analog, reaching the ground with
-    /// probability e^(−τ) and colliding otherwise, both with weight 1.
-    Analog,
-    /// A reflecting ground, both ends followed: the collision is forced
-    /// (weight 1 − e^(−τ)) and the ground is a second branch of weight
-    /// e^(−τ) ([`ForcedFlight::ground_branch`]). No choice between the
-    /// two is left to chance, which removes the variance of that choice
-    /// (for a bright ground seen through a thin layer the ground carries
-    /// the intensity and the collisions the polarisation).
-    Split,
-}
-
-/// Collision sampling with forced collisions in a piecewise-constant medium
-/// (Cashwell & Everett 1959; Mayer 2009 uses it in MYSTIC): when the end of
-/// the ray contributes nothing (it leaves through the top, or hits a black
-/// ground: [`GroundEnd::Absorbs`]), the collision distance is drawn from
-/// the exponential truncated to the ray's optical depth τ and the path
-/// carries the weight 1 − e^(−τ), so every path scatters. A ray reaching a
-/// reflecting ground is analog (the same distribution as delta tracking)
-/// or split into both ends ([`GroundEnd`]). τ comes from
-/// [`exit_optical_depth`]; the collision is found by walking the segments
-/// only as far as it ([`locate_on_ray`]).
-///
-/// In concentric piecewise-constant shells the ray's half chords are
-/// computed once ([`half_chords_into`]) and give both τ and the segments
-/// the collision is searched along ([`ShellExit::segments`]), so the search
-/// takes no further square roots.
-pub fn forced_flight(
-    medium: &Medium,
-    geometry: &Geometry,
-    ray: &Ray,
-    sampler: &mut Sampler,
-    ground: GroundEnd,
-) -> ForcedFlight {
-    match *geometry {
-        Geometry::Spherical { radius_km } if medium.is_piecewise_constant() => {
-            let levels = medium.levels_km();
-            let exit = shell_exit(radius_km, levels, ray);
-            let range = exit.levels();
-            let mut stack = [0.0; STACK_CHORDS];
-            let mut heap = Vec::new();
-            let chords = if range.len() <= STACK_CHORDS {
-                &mut stack[..range.len()]
-            } else {
-                heap.resize(range.len(), 0.0);
-                &mut heap[..]
-            };
-            half_chords_into(radius_km, &levels[range], exit.h, chords);
-            let tau_exit = exit.depth(medium.sigma_maj(ray.layer), medium.steps(), chords).max(0.0);
-            let end = exit.end(radius_km, levels, ray);
-            forced_from(tau_exit, end, sampler, ground, |target| {
-                exit.locate(medium.sigma_majorants(), chords, target)
-            })
-        }
-        _ => {
-            let (tau_exit, end) = exit_optical_depth(medium, geometry, ray);
-            forced_from(tau_exit, end, sampler, ground, |target| {
-                locate_on_ray(medium, geometry, ray, target)
-            })
-        }
-    }
-}
-
-/// Half chords kept on the stack for a forced flight (more levels than
-/// this go to the heap).
-const STACK_CHORDS: usize = 128;
-
-/// [`forced_flight`] given the ray's majorant depth to its end and how it
-/// ends; `locate` finds the point at a majorant depth.
-fn forced_from(
-    tau_exit: f64,
-    end: WalkEnd,
-    sampler: &mut Sampler,
-    ground: GroundEnd,
-    locate: impl FnOnce(f64) -> Collision,
-) -> ForcedFlight {
-    let u = sampler.next_f64();
-    let only = |end| ForcedFlight {
-        end,
-        weight: 1.0,
-        forced_probability: None,
-        ground_branch: None,
-    };
-    let ground_branch = match end {
-        WalkEnd::Ground { t } if ground == GroundEnd::Analog => {
-            let tau = -(1.0 - u).ln();
-            if tau >= tau_exit {
-                return only(FlightEnd::Ground { t });
-            }
-            return ForcedFlight {
-                end: FlightEnd::Collided(locate(tau)),
-                ..only(FlightEnd::Endless)
-            };
-        }
-        WalkEnd::Ground { t } if ground == GroundEnd::Split => Some((t, (-tau_exit).exp())),
-        _ => None,
-    };
-    if tau_exit <= 0.0 {
-        return only(match end {
-            WalkEnd::Ground { t } => FlightEnd::Ground { t },
-            WalkEnd::Top { t } => FlightEnd::Top { t },
-            _ => FlightEnd::Endless,
-        });
-    }
-    // P(collide before the end) = 1 − e^(−τ), computed without cancellation.
-    let p = -(-tau_exit).exp_m1();
-    ForcedFlight {
-        end: FlightEnd::Collided(locate(forced_distance(u, p))),
-        weight: p,
-        forced_probability: Some(p),
-        ground_branch,
-    }
-}
-
 /// The layer segments of `ray` with their majorant optical depths, into
 /// `segments` (cleared first); an endless segment has depth ∞ unless empty.
 pub fn segments_of(medium: &Medium, geometry: &Geometry, ray: &Ray, segments: &mut Vec<(Segment, f64)>) -> WalkEnd {
@@ -401,23 +254,6 @@ fn majorant_depth(medium: &Medium, seg: &Segment) -> f64 {
     }
 }
 
-/// The point at majorant optical depth `tau_target` along `ray`, walking its
-/// segments until it is reached (the last segment's end if rounding leaves
-/// the target beyond the ray's end).
-pub fn locate_on_ray(medium: &Medium, geometry: &Geometry, ray: &Ray, tau_target: f64) -> Collision {
-    let mut search = DepthSearch::new(tau_target);
-    let mut hit = None;
-    walk(geometry, medium.levels_km(), ray, |seg| {
-        hit = search.step(medium.sigma_maj(seg.layer), seg, majorant_depth(medium, &seg));
-        if hit.is_some() {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    });
-    hit.unwrap_or_else(|| search.beyond(medium.sigma_majorants()))
-}
-
 /// The point at optical depth `tau_target` along `ray` for σ per layer
 /// `sigma` (finite segments only), walking its segments until it is
 /// reached (as [`locate_on_ray`]).
@@ -434,16 +270,6 @@ pub fn locate_with(sigma: &[f64], geometry: &Geometry, levels_km: &[f64], ray: &
         }
     });
     hit.unwrap_or_else(|| search.beyond(sigma))
-}
-
-/// The point at majorant optical depth `tau_target` along `segments` (in
-/// order along the ray).
-pub fn locate(medium: &Medium, segments: impl IntoIterator<Item = Segment>, tau_target: f64) -> Collision {
-    let mut search = DepthSearch::new(tau_target);
-    segments
-        .into_iter()
-        .find_map(|seg| search.step(medium.sigma_maj(seg.layer), seg, majorant_depth(medium, &seg)))
-        .unwrap_or_else(|| search.beyond(medium.sigma_majorants()))
 }
 
 /// The search for the point at a target optical depth, segment by segment.
@@ -492,21 +318,6 @@ impl DepthSearch {
 /// truncated exponential.
 pub fn forced_distance(u: f64, p: f64) -> f64 {
     -(-u * p).ln_1p()
-}
-
-/// Ratio-tracking estimate of the transmittance from the ray's origin to
-/// where it leaves through the top (0 if it hits the ground).
-pub fn ratio_tracking_transmittance(medium: &Medium, geometry: &Geometry, ray: &Ray, sampler: &mut Sampler) -> f64 {
-    let mut tr = 1.0;
-    let end = sample_t_maj(medium, geometry, ray, sampler, |c, _| {
-        let z = geometry.altitude(ray.origin + c.t * ray.dir);
-        tr *= 1.0 - medium.at(c.layer, z).sigma_t / c.sigma_maj;
-        tr > 0.0
-    });
-    match end {
-        FlightEnd::Top { .. } => tr,
-        _ => 0.0,
-    }
 }
 
 /// The crossings of a ray through concentric shells, summed in closed form.
@@ -816,32 +627,6 @@ fn half_chords_into_portable(radius_km: f64, levels_km: &[f64], h: f64, out: &mu
     }
 }
 
-/// Majorant optical depth from the ray's origin to where it leaves the
-/// atmosphere (top or ground), and how it ends: [`shell_exit`] for
-/// piecewise-constant shells, else the sum over the walked segments.
-pub fn exit_optical_depth(medium: &Medium, geometry: &Geometry, ray: &Ray) -> (f64, WalkEnd) {
-    match *geometry {
-        Geometry::Spherical { radius_km } if medium.is_piecewise_constant() => {
-            let levels = medium.levels_km();
-            let steps = medium.steps();
-            let exit = shell_exit(radius_km, levels, ray);
-            let sum = |r: &std::ops::Range<usize>| {
-                weighted_half_chords(radius_km, &levels[r.clone()], &steps[r.clone()], exit.h)
-            };
-            let tau = -exit.b * medium.sigma_maj(ray.layer) + 2.0 * sum(&exit.twice) + sum(&exit.once);
-            (tau.max(0.0), exit.end(radius_km, levels, ray))
-        }
-        _ => {
-            let mut tau = 0.0;
-            let end = walk(geometry, medium.levels_km(), ray, |seg| {
-                tau += majorant_depth(medium, &seg);
-                ControlFlow::Continue(())
-            });
-            (tau, end)
-        }
-    }
-}
-
 /// Optical depth from the ray's origin to the top, and how the walk ended
 /// (a ray that hits the ground returns its optical depth to the ground).
 pub fn optical_depth(medium: &Medium, geometry: &Geometry, ray: &Ray) -> (f64, WalkEnd) {
@@ -876,21 +661,6 @@ pub fn optical_depth_to(medium: &Medium, geometry: &Geometry, ray: &Ray, length:
         }
     });
     tau
-}
-
-/// Exact transmittance from the ray's origin to the top (0 if the ray hits
-/// the ground).
-pub fn analytic_transmittance(medium: &Medium, geometry: &Geometry, ray: &Ray) -> f64 {
-    let (tau, end) = if medium.is_piecewise_constant() {
-        exit_optical_depth(medium, geometry, ray)
-    } else {
-        optical_depth(medium, geometry, ray)
-    };
-    match (tau, end) {
-        (tau, WalkEnd::Top { .. }) => (-tau).exp(),
-        (tau, WalkEnd::Endless) => (-tau).exp(),
-        _ => 0.0,
-    }
 }
 
 /// The layer holding altitude `z_km`, for a ray going in direction `dir`
@@ -1020,10 +790,42 @@ mod tests {
             layer: layer_at(m.levels_km(), 3.0, -1.0).unwrap(),
             ..down
         };
-        assert_eq!(
-            analytic_transmittance(&m, &Geometry::Spherical { radius_km: R }, &down),
-            0.0
+        let (_, end) = optical_depth(&m, &Geometry::Spherical { radius_km: R }, &down);
+        assert!(matches!(end, WalkEnd::Ground { .. }));
+    }
+
+    /// Delta tracking of `m` by [`sample_t_maj`]: the next real collision.
+    fn delta(m: &Medium, g: &Geometry, ray: &Ray, s: &mut Sampler) -> FlightEnd {
+        sample_t_maj(
+            |l| m.sigma_maj(l),
+            g,
+            m.levels_km(),
+            ray,
+            s,
+            |c, s| {
+                let z = g.altitude(ray.origin + c.t * ray.dir);
+                s.next_f64() * c.sigma_maj >= m.at(c.layer, z).sigma_t
+            },
+        )
+    }
+
+    /// Ratio tracking of `m` by [`sample_t_maj`]: the transmittance to the
+    /// top (0 into the ground).
+    fn ratio(m: &Medium, g: &Geometry, ray: &Ray, s: &mut Sampler) -> f64 {
+        let mut tr = 1.0;
+        let end = sample_t_maj(
+            |l| m.sigma_maj(l),
+            g,
+            m.levels_km(),
+            ray,
+            s,
+            |c, _| {
+                let z = g.altitude(ray.origin + c.t * ray.dir);
+                tr *= 1.0 - m.at(c.layer, z).sigma_t / c.sigma_maj;
+                tr > 0.0
+            },
         );
+        if matches!(end, FlightEnd::Top { .. }) { tr } else { 0.0 }
     }
 
     /// Mean and standard error of `n` estimates.
@@ -1046,11 +848,11 @@ mod tests {
                 let m = medium(model, scale);
                 // A slant path from 1.5 km at 80° zenith (τ ≈ 3 at 340 nm).
                 let ray = slant_ray(80.0, 1.5, m.levels_km());
-                let exact = analytic_transmittance(&m, &g, &ray);
+                let exact = (-optical_depth(&m, &g, &ray).0).exp();
                 let n = 40_000u64;
                 let (mr, ser, _) = mean_se((0..n).map(|k| {
                     let mut s = Sampler::new(&[11, k]);
-                    ratio_tracking_transmittance(&m, &g, &ray, &mut s)
+                    ratio(&m, &g, &ray, &mut s)
                 }));
                 assert!(
                     (mr - exact).abs() < 4.0 * ser,
@@ -1058,7 +860,7 @@ mod tests {
                 );
                 let (md, sed, _) = mean_se((0..n).map(|k| {
                     let mut s = Sampler::new(&[12, k]);
-                    match delta_track(&m, &g, &ray, &mut s) {
+                    match delta(&m, &g, &ray, &mut s) {
                         FlightEnd::Top { .. } => 1.0,
                         _ => 0.0,
                     }
@@ -1112,11 +914,15 @@ mod tests {
                 walked_segments.push(seg);
                 ControlFlow::Continue(())
             });
-            let (closed, end) = exit_optical_depth(&m, &g, &ray);
+            // The closed form, the half chords summed with the steps.
+            let exit = shell_exit(R, levels, &ray);
+            let sum =
+                |r: &std::ops::Range<usize>| weighted_half_chords(R, &levels[r.clone()], &m.steps()[r.clone()], exit.h);
+            let closed = -exit.b * m.sigma_maj(layer) + 2.0 * sum(&exit.twice) + sum(&exit.once);
+            let end = exit.end(R, levels, &ray);
             // Both sums carry rounding of order levels·ε·R·max σ ≈ 1e-11.
             assert!((closed - walked).abs() < 2e-11, "z {z} μ {mu}: {closed} vs {walked}");
             // The same depth and segments from the stored half chords.
-            let exit = shell_exit(R, levels, &ray);
             let mut chords = vec![0.0; exit.levels().len()];
             half_chords_into(R, &levels[exit.levels()], exit.h, &mut chords);
             let from_chords = exit.depth(m.sigma_maj(layer), m.steps(), &chords);
@@ -1124,12 +930,18 @@ mod tests {
                 (from_chords - walked).abs() < 2e-11,
                 "z {z} μ {mu}: {from_chords} vs {walked}"
             );
-            // The specialised search finds what the generic one finds along
-            // the same segments, also past the end (rounding).
+            // The search along the half chords finds what the walked one
+            // finds, also past the end (rounding).
             for target in [s.next_f64() * from_chords, 1.5 * from_chords + 1.0] {
                 let fast = exit.locate(m.sigma_majorants(), &chords, target);
-                let generic = locate(&m, exit.segments(&chords), target);
-                assert_eq!(fast, generic, "z {z} μ {mu} τ {target}");
+                let walked = locate_with(m.sigma_majorants(), &g, levels, &ray, target);
+                // Segment ends agree to 1e-9 km and depths to 2e-11 (above),
+                // which moves the point by 2e-11/σ.
+                let tolerance = 1e-9 + 2e-11 / fast.sigma_maj;
+                assert!(
+                    fast.layer == walked.layer && (fast.t - walked.t).abs() < tolerance,
+                    "z {z} μ {mu} τ {target}: {fast:?} vs {walked:?}"
+                );
             }
             let segments: Vec<Segment> = exit.segments(&chords).collect();
             // The plain-loop visitor gives the iterator's segments exactly.
@@ -1192,72 +1004,21 @@ mod tests {
     }
 
     #[test]
-    fn forced_flights_weight_the_truncated_distribution_exactly() {
-        // E[weight · 1(t > s)] must equal e^(−τ(s)) − e^(−τ_exit) for a ray
-        // that leaves through the top, and the weight is 1 − e^(−τ_exit).
-        let g = Geometry::Spherical { radius_km: R };
-        let m = medium(MediumModel::Layered, 1.0);
-        let ray = slant_ray(70.0, 0.2, m.levels_km());
-        let (tau_exit, _) = optical_depth(&m, &g, &ray);
+    fn forced_distances_follow_the_truncated_exponential() {
+        // The optical depth of a forced collision exceeds s with
+        // probability (e^(−s) − e^(−τ))/(1 − e^(−τ)), and never exceeds τ.
+        let tau_exit: f64 = 0.7;
+        let p = -(-tau_exit).exp_m1();
         let n = 40_000u64;
-        let flights: Vec<ForcedFlight> = (0..n)
-            .map(|k| forced_flight(&m, &g, &ray, &mut Sampler::new(&[14, k]), GroundEnd::Absorbs))
+        let depths: Vec<f64> = (0..n)
+            .map(|k| forced_distance(Sampler::new(&[14, k]).next_f64(), p))
             .collect();
-        for f in &flights {
-            assert!((f.weight - (1.0 - (-tau_exit).exp())).abs() < 1e-14);
-            assert!(matches!(f.end, FlightEnd::Collided(_)));
-        }
-        for dist in [0.5, 2.0, 10.0] {
-            let tau = optical_depth_to(&m, &g, &ray, dist);
-            let exact = (-tau).exp() - (-tau_exit).exp();
-            let (mean, se, _) = mean_se(flights.iter().map(|f| match f.end {
-                FlightEnd::Collided(c) if c.t > dist => f.weight,
-                _ => 0.0,
-            }));
-            assert!((mean - exact).abs() < 4.0 * se, "{dist} km: {mean} ± {se} vs {exact}");
-        }
-        // Looking down at a reflecting ground the flight is analog.
-        let down = Ray {
-            dir: -ray.dir,
-            layer: layer_at(m.levels_km(), 0.2, -1.0).unwrap(),
-            ..ray
-        };
-        let (tau_g, _) = optical_depth(&m, &g, &down);
-        let (mean, se, _) = mean_se((0..n).map(|k| {
-            let f = forced_flight(&m, &g, &down, &mut Sampler::new(&[15, k]), GroundEnd::Analog);
-            assert_eq!(f.weight, 1.0);
-            if matches!(f.end, FlightEnd::Ground { .. }) {
-                1.0
-            } else {
-                0.0
-            }
-        }));
-        assert!((mean - (-tau_g).exp()).abs() < 4.0 * se);
-        // Split, the collision is forced and the ground is a second branch
-        // of weight e^(−τ): E[collision weight · 1(t > s)] + e^(−τ) = e^(−τ(s)).
-        let ground_t = match exit_optical_depth(&m, &g, &down).1 {
-            WalkEnd::Ground { t } => t,
-            end => panic!("{end:?}"),
-        };
-        let split: Vec<ForcedFlight> = (0..n)
-            .map(|k| forced_flight(&m, &g, &down, &mut Sampler::new(&[16, k]), GroundEnd::Split))
-            .collect();
-        for f in &split {
-            assert!((f.weight + (-tau_g).exp_m1()).abs() < 1e-12);
-            let (t, w) = f.ground_branch.expect("a ground branch");
-            assert!(
-                (t - ground_t).abs() < 1e-12 && (w - (-tau_g).exp()).abs() < 1e-12,
-                "{t} {w}"
-            );
-        }
-        for dist in [0.1, 0.3, 0.5] {
-            let tau = optical_depth_to(&m, &g, &down, dist);
-            let (mean, se, _) = mean_se(split.iter().map(|f| match f.end {
-                FlightEnd::Collided(c) if c.t > dist => f.weight,
-                _ => 0.0,
-            }));
-            let exact = (-tau).exp() - (-tau_g).exp();
-            assert!((mean - exact).abs() < 4.0 * se, "{dist} km: {mean} ± {se} vs {exact}");
+        assert!(depths.iter().all(|&d| (0.0..=tau_exit + 1e-12).contains(&d)));
+        for s in [0.05f64, 0.3, 0.6] {
+            let exact = ((-s).exp() - (-tau_exit).exp()) / p;
+            let frac = depths.iter().filter(|&&d| d > s).count() as f64 / n as f64;
+            let se = (exact * (1.0 - exact) / n as f64).sqrt();
+            assert!((frac - exact).abs() < 4.0 * se, "{s}: {frac} vs {exact}");
         }
     }
 
@@ -1271,7 +1032,7 @@ mod tests {
         let ts: Vec<f64> = (0..n)
             .map(|k| {
                 let mut s = Sampler::new(&[13, k]);
-                match delta_track(&m, &g, &ray, &mut s) {
+                match delta(&m, &g, &ray, &mut s) {
                     FlightEnd::Collided(c) => c.t,
                     _ => f64::INFINITY,
                 }

@@ -193,7 +193,8 @@ pub fn spectral_ratio_tracking(
     out: &mut [f64],
 ) {
     out.iter_mut().for_each(|t| *t = 1.0);
-    tracking::sample_t_maj(majorant, geometry, ray, sampler, |c, _| {
+    let sigma_maj = |l| majorant.sigma_maj(l);
+    tracking::sample_t_maj(sigma_maj, geometry, majorant.levels_km(), ray, sampler, |c, _| {
         if c.t >= length {
             return false;
         }
@@ -236,16 +237,24 @@ pub fn spectral_residual_ratio_tracking(
         }
     });
     out.iter_mut().for_each(|t| *t = (-*t).exp());
-    tracking::sample_t_maj(residual_majorant, geometry, ray, sampler, |c, _| {
-        if c.t >= length {
-            return false;
-        }
-        let z = geometry.altitude(ray.origin + c.t * ray.dir);
-        for (t, m) in out.iter_mut().zip(media) {
-            *t *= 1.0 - (m.at(c.layer, z).sigma_t - m.layer_sigma_t(c.layer)) / c.sigma_maj;
-        }
-        true
-    });
+    let sigma_maj = |l| residual_majorant.sigma_maj(l);
+    tracking::sample_t_maj(
+        sigma_maj,
+        geometry,
+        residual_majorant.levels_km(),
+        ray,
+        sampler,
+        |c, _| {
+            if c.t >= length {
+                return false;
+            }
+            let z = geometry.altitude(ray.origin + c.t * ray.dir);
+            for (t, m) in out.iter_mut().zip(media) {
+                *t *= 1.0 - (m.at(c.layer, z).sigma_t - m.layer_sigma_t(c.layer)) / c.sigma_maj;
+            }
+            true
+        },
+    );
 }
 
 /// Fills the table of one task: `media` per wavelength, observer altitude,
