@@ -132,12 +132,11 @@ struct ChannelSpectra {
     responses: Vec<Response>,
     weights: Vec<f64>,
     source: Vec<f64>,
-    /// Each channel's σ_t per layer (`[channel·layers + layer]`; the layer
-    /// mean in the smooth medium).
+    /// Where every path shares them (monochromatic channels): each
+    /// channel's σ_t per layer (`[channel·layers + layer]`; the layer mean in
+    /// the smooth medium) and, in the layered medium, its coefficients per
+    /// layer likewise; empty otherwise.
     sigma: Vec<f64>,
-    /// Each channel's coefficients per layer, likewise, where they are the
-    /// same at every point of a layer and shared by every path (empty
-    /// otherwise).
     coefficients: Vec<PointCoefficients>,
 }
 
@@ -251,6 +250,8 @@ struct Path {
     shadow_tr: Vec<f64>,
     /// Scratch: basis depths to a point.
     point_basis: Vec<f64>,
+    /// The hero's σ_t per layer, where the spectra do not hold it.
+    hero_sigma: Vec<f64>,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -341,6 +342,7 @@ impl Path {
         self.radiance.clone_from(&other.radiance);
         self.albedos = other.albedos;
         self.matrices.clone_from(&other.matrices);
+        self.hero_sigma.clone_from(&other.hero_sigma);
         let n = other.throughput.len();
         for v in [&mut self.tau_hit, &mut self.forced, &mut self.shadow_tr] {
             v.resize(n, 0.0);
@@ -488,6 +490,10 @@ impl Scene {
                 coefficients: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
+            let layers = scene.levels_km.len() - 1;
+            fixed.sigma = (0..n * layers)
+                .map(|i| scene.sigma_t(&fixed, i % layers, i / layers))
+                .collect();
             if scene.shapes.is_none() {
                 let layers = scene.levels_km.len() - 1;
                 fixed.coefficients = (0..n * layers)
@@ -581,23 +587,9 @@ impl Scene {
             }));
     }
 
-    /// Fills the spectra's extinction weights from its responses, and each
-    /// channel's σ_t per layer.
+    /// Fills the spectra's extinction weights on the basis from its
+    /// responses.
     fn refresh_weights(&self, spectra: &mut ChannelSpectra) {
-        self.refresh_basis_weights(spectra);
-        let (n, b, layers) = (self.channels.len(), self.basis_len, self.levels_km.len() - 1);
-        spectra.sigma.resize(n * layers, 0.0);
-        for w in 0..n {
-            let weights = &spectra.weights[w * b..(w + 1) * b];
-            for (l, sigma) in spectra.sigma[w * layers..(w + 1) * layers].iter_mut().enumerate() {
-                let basis = &self.basis_sigma[l * b..(l + 1) * b];
-                *sigma = weights.iter().zip(basis).map(|(a, s)| a * s).sum::<f64>().max(0.0);
-            }
-        }
-    }
-
-    /// Fills the spectra's extinction weights on the basis.
-    fn refresh_basis_weights(&self, spectra: &mut ChannelSpectra) {
         let (n, t, b) = (self.channels.len(), self.terms.terms.len(), self.basis_len);
         match &self.basis {
             Basis::Terms(k) => {
@@ -778,7 +770,13 @@ impl Scene {
     /// σ_t of channel `w` in `layer`.
     #[inline]
     fn sigma_t(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
-        spectra.sigma[w * (self.levels_km.len() - 1) + layer]
+        if let Some(&sigma) = spectra.sigma.get(w * (self.levels_km.len() - 1) + layer) {
+            return sigma;
+        }
+        let b = self.basis_len;
+        let weights = &spectra.weights[w * b..(w + 1) * b];
+        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        weights.iter().zip(sigma).map(|(a, s)| a * s).sum::<f64>().max(0.0)
     }
 
     /// Adds every basis vector's σ·`len` of `layer` to `tau`.
@@ -931,6 +929,11 @@ impl Scene {
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
             let levels = &self.levels_km;
             path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
+            if spectra.sigma.is_empty() {
+                path.hero_sigma.clear();
+                path.hero_sigma
+                    .extend((0..levels.len() - 1).map(|l| self.sigma_t(spectra, l, hero)));
+            }
             let origin = self.geometry.observer_position(altitude_km);
             let up = self.geometry.up(origin);
             match tracking::layer_at(levels, altitude_km, view.dot(up)) {
@@ -1296,7 +1299,10 @@ impl Scene {
     /// walked; the end if rounding leaves the target beyond it.
     fn locate(&self, path: &Path, spectra: &ChannelSpectra, ray: &Ray, target: f64) -> (f64, usize) {
         let layers = self.levels_km.len() - 1;
-        let sigma = &spectra.sigma[path.hero * layers..(path.hero + 1) * layers];
+        let sigma = match spectra.sigma.get(path.hero * layers..(path.hero + 1) * layers) {
+            Some(shared) => shared,
+            None => &path.hero_sigma,
+        };
         let c = match &path.ray.exit {
             Some(exit) => exit.locate(sigma, &path.ray.chords, target),
             None => tracking::locate_with(sigma, &self.geometry, &self.levels_km, ray, target),
