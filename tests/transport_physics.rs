@@ -231,12 +231,20 @@ fn shared_spectral_paths_equal_single_wavelength_renders() {
 /// along shared paths and each wavelength alone with an analog first
 /// vertex (independent streams), and asserts no outlier.
 fn shared_paths_against_single_wavelengths(base: &str, wavelengths: &[f64], samples: u64) {
+    shared_paths_against_single_channels(base, wavelengths, 0.0, samples)
+}
+
+/// [`shared_paths_against_single_wavelengths`] for channels of
+/// `band_width_nm` (0: single wavelengths), each alone a one-channel scene.
+fn shared_paths_against_single_channels(base: &str, wavelengths: &[f64], band_width_nm: f64, samples: u64) {
     let list = wavelengths
         .iter()
         .map(|l| format!("{l:.1}"))
         .collect::<Vec<_>>()
         .join(", ");
-    let text = format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n[ground]\nalbedo = [0.0, 0.5]\n");
+    let text = format!(
+        "{base}[spectrum]\nwavelengths_nm = [{list}]\nband_width_nm = {band_width_nm:?}\n[ground]\nalbedo = [0.0, 0.5]\n"
+    );
     let j = job(&text);
     let spectral = j.spectral_scene(&j.tasks[0]).expect("shared paths apply");
     let analog = if text.contains("[render]\n") {
@@ -285,6 +293,12 @@ fn shared_paths_equal_single_wavelength_renders_for_every_transport_option() {
     let pseudo = "[planet]\ngeometry = \"pseudo_spherical\"\n[sun]\nelevation_deg = 4.0\n\
                   [atmosphere]\naerosol = \"continental_average\"\n[observer]\naltitude_km = 0.5\n";
     shared_paths_against_single_wavelengths(pseudo, &[320.0, 500.0, 760.0], 10_000);
+    // Bands of 40 nm, each alone against all three along shared paths, by
+    // day and with the sun set (sun-aware connections).
+    for sun in [30.0, -2.0] {
+        let base = format!("{aerosol}[sun]\nelevation_deg = {sun}\n");
+        shared_paths_against_single_channels(&base, &[340.0, 500.0, 740.0], 40.0, 10_000);
+    }
 }
 
 #[test]
