@@ -177,12 +177,6 @@ impl Medium {
         self.sigma_maj[i]
     }
 
-    /// The majorant of every layer (km⁻¹).
-    #[inline]
-    pub fn sigma_majorants(&self) -> &[f64] {
-        &self.sigma_maj
-    }
-
     /// The majorant's step at each level, σ_maj(k − 1) − σ_maj(k) (zero
     /// outside the atmosphere): see [`crate::tracking::shell_exit`].
     #[inline]

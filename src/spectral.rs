@@ -773,10 +773,29 @@ impl Scene {
         if let Some(&sigma) = spectra.sigma.get(w * (self.levels_km.len() - 1) + layer) {
             return sigma;
         }
+        self.basis_parts(spectra, layer, w)
+            .map(|(x, _)| x)
+            .sum::<f64>()
+            .max(0.0)
+    }
+
+    /// Channel `w`'s σ_t in `layer` by basis vector: each vector's share
+    /// W·σ, and how it varies inside a smooth layer.
+    #[inline]
+    fn basis_parts<'a>(
+        &'a self,
+        spectra: &'a ChannelSpectra,
+        layer: usize,
+        w: usize,
+    ) -> impl Iterator<Item = (f64, TermShape)> + 'a {
         let b = self.basis_len;
         let weights = &spectra.weights[w * b..(w + 1) * b];
         let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
-        weights.iter().zip(sigma).map(|(a, s)| a * s).sum::<f64>().max(0.0)
+        weights
+            .iter()
+            .zip(sigma)
+            .zip(&self.basis_shapes)
+            .map(|((a, s), shape)| (a * s, *shape))
     }
 
     /// Adds every basis vector's σ·`len` of `layer` to `tau`.
@@ -855,12 +874,9 @@ impl Scene {
         let Some(shapes) = &self.shapes else {
             return self.sigma_t(spectra, layer, w);
         };
-        let b = self.basis_len;
         let shape = Some(&shapes[layer]);
-        let weights = &spectra.weights[w * b..(w + 1) * b];
-        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
-        (0..b)
-            .map(|j| weights[j] * sigma[j] * self.basis_shapes[j].factor(shape, f))
+        self.basis_parts(spectra, layer, w)
+            .map(|(x, kind)| x * kind.factor(shape, f))
             .sum::<f64>()
             .max(0.0)
     }
@@ -872,12 +888,9 @@ impl Scene {
         let bound = match &self.shapes {
             None => self.sigma_t(spectra, layer, w),
             Some(shapes) => {
-                let b = self.basis_len;
                 let shape = Some(&shapes[layer]);
-                let weights = &spectra.weights[w * b..(w + 1) * b];
-                let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
-                (0..b)
-                    .map(|j| (weights[j] * sigma[j]).abs() * self.basis_shapes[j].max_factor(shape))
+                self.basis_parts(spectra, layer, w)
+                    .map(|(x, kind)| x.abs() * kind.max_factor(shape))
                     .sum::<f64>()
             }
         };
