@@ -12,14 +12,17 @@ use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
-use atmosim::checkpoint::{self, StateFile};
+use atmosim::atmosphere::report;
+use atmosim::io::output;
 use atmosim::job::{Job, Sensor, Task};
-use atmosim::medium::Medium;
-use atmosim::out_dir::Destination;
-use atmosim::shard::Shard;
-use atmosim::task_output::{self, RunInfo};
-use atmosim::unit::{self, Control, Layout, Outcome, UnitState};
-use atmosim::{merge, output, plan, render, report, transmittance};
+use atmosim::run::checkpoint::{self, StateFile};
+use atmosim::run::out_dir::Destination;
+use atmosim::run::shard::Shard;
+use atmosim::run::task_output::{self, RunInfo};
+use atmosim::run::work_unit::{self, Control, Layout, Outcome, UnitState};
+use atmosim::run::{merge, plan, render};
+use atmosim::transport::medium::Medium;
+use atmosim::transport::transmittance;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Parser)]
@@ -239,7 +242,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             render_units(&job, &tasks, &destination, &pool, &options)?;
         }
         Command::Merge { out, quiet } => {
-            let merged = atmosim::merge::merge(&out, &|msg: &str| {
+            let merged = atmosim::run::merge::merge(&out, &|msg: &str| {
                 if !quiet {
                     eprintln!("{msg}");
                 }
@@ -257,9 +260,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut report = Vec::new();
             if ratios {
                 let serial = thread_pool(Some(1))?;
-                pool.install(|| atmosim::bench::ratios(samples, &serial, &mut report))?;
+                pool.install(|| atmosim::run::bench::ratios(samples, &serial, &mut report))?;
             }
-            pool.install(|| atmosim::bench::run(samples, &mut report))?;
+            pool.install(|| atmosim::run::bench::run(samples, &mut report))?;
             let mut out = std::io::stdout().lock();
             out.write_all(&report).context("writing to stdout")?;
         }
@@ -570,7 +573,7 @@ fn render_units(
             progress: &inc,
         };
         let shared = job.spectral_scene(task);
-        let outcome = pool.install(|| unit::run(job, task, layout, shared, state, &control))?;
+        let outcome = pool.install(|| work_unit::run(job, task, layout, shared, state, &control))?;
         if let Outcome::Stopped { checkpoint } = outcome {
             let sig = SIGNAL.load(Ordering::SeqCst) as i32;
             progress.finish();
@@ -955,7 +958,7 @@ struct ValidateArgs {
 }
 
 fn run_uvspec(args: UvspecArgs) -> anyhow::Result<()> {
-    let input = atmosim::uvspec::UvspecInput::from_file(&args.input)?;
+    let input = atmosim::compat::uvspec::UvspecInput::from_file(&args.input)?;
     for w in &input.warnings {
         eprintln!("warning: {w}");
     }
@@ -968,10 +971,10 @@ fn run_uvspec(args: UvspecArgs) -> anyhow::Result<()> {
     }
     let job = input.job(args.samples, args.seed, args.full_spherical)?;
     let pool = thread_pool(args.threads)?;
-    let result = pool.install(|| atmosim::uvspec::run(&input, &job))?;
+    let result = pool.install(|| atmosim::compat::uvspec::run(&input, &job))?;
     let text = match args.format {
-        UvspecFormat::Uvspec => atmosim::uvspec::format_uvspec(&input, &result),
-        UvspecFormat::Csv => atmosim::uvspec::format_csv(&input, &result),
+        UvspecFormat::Uvspec => atmosim::compat::uvspec::format_uvspec(&input, &result),
+        UvspecFormat::Csv => atmosim::compat::uvspec::format_csv(&input, &result),
     };
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes()).context("writing to stdout")?;
@@ -992,7 +995,7 @@ fn no_samples() -> atmosim::Error {
 
 /// Runs the validation cases; Err (exit 1) when one fails.
 fn run_validate(args: ValidateArgs) -> anyhow::Result<()> {
-    use atmosim::validate;
+    use atmosim::compat::validate;
     if args.list {
         for c in validate::cases() {
             let kind = if c.informational { " (informational)" } else { "" };
@@ -1027,7 +1030,7 @@ fn run_validate(args: ValidateArgs) -> anyhow::Result<()> {
     if args.samples == Some(0) {
         anyhow::bail!(no_samples());
     }
-    atmosim::out_dir::Destination {
+    atmosim::run::out_dir::Destination {
         dir: args.out.clone(),
         file: "command line".into(),
         key: "--out".into(),

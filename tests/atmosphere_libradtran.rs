@@ -8,8 +8,8 @@
 use std::path::Path;
 
 use atmosim::atmosphere::Atmosphere;
-use atmosim::data::Table;
 use atmosim::job::Job;
+use atmosim::physics::data::Table;
 
 const RAYLEIGH_REL: f64 = 5e-4;
 const OZONE_REL: f64 = 5e-3;

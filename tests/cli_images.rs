@@ -3,7 +3,7 @@
 
 mod common;
 
-use atmosim::openexr::read_exr;
+use atmosim::io::exr::read_exr;
 use common::{atmosim, run_job};
 
 const JOB: &str = "[atmosphere]\nvisibility_km = [30.0, 60.0]\n[spectrum]\nwavelengths_nm = [450.0, 550.0]\n\
@@ -352,7 +352,10 @@ fn the_readme_documents_every_output_attribute_and_column() {
             .lines()
             .filter_map(|l| l.split_once(" = ").map(|(k, _)| k.to_string())),
     );
-    for header in [atmosim::output::RADIANCE_CSV_HEADER, atmosim::output::FLUX_CSV_HEADER] {
+    for header in [
+        atmosim::io::output::RADIANCE_CSV_HEADER,
+        atmosim::io::output::FLUX_CSV_HEADER,
+    ] {
         names.extend(header.split(',').map(String::from));
     }
     for name in names {

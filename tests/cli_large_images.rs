@@ -9,7 +9,7 @@ use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
 use assert_cmd::cargo::CommandCargoExt;
-use atmosim::checkpoint::StateFile;
+use atmosim::run::checkpoint::StateFile;
 use common::{atmosim, sigterm};
 
 /// 8.4 million pixels at one wavelength: a sample of every pixel takes

@@ -256,7 +256,7 @@ fn absolute_units_scale_the_directions_outputs_by_the_irradiance() {
     let (ra, fabs, meta_a) = render_csvs(dir.path(), &format!("{job}[output]\nunits = \"absolute\"\n"), "abs");
     assert!(meta_n.contains("units = \"normalized"), "{meta_n}");
     assert!(meta_a.contains("units = \"absolute: W m-2 sr-1 nm-1"), "{meta_a}");
-    let solar = atmosim::solar::SolarSpectrum::kurucz().unwrap();
+    let solar = atmosim::physics::solar::SolarSpectrum::kurucz().unwrap();
     // radiance.csv: I..V_se (columns 4–11) scale; fluxes.csv: every column
     // after wavelength, albedo and altitude.
     for (n, a, cols) in [

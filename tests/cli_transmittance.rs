@@ -3,7 +3,7 @@
 
 mod common;
 
-use atmosim::openexr::read_exr;
+use atmosim::io::exr::read_exr;
 use common::atmosim;
 
 #[test]

@@ -72,7 +72,7 @@ fn uvspec_output_has_the_flux_line_and_the_radiance_block() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("in.inp");
     std::fs::write(&path, SMALL).unwrap();
-    let job = atmosim::uvspec::UvspecInput::from_file(&path)
+    let job = atmosim::compat::uvspec::UvspecInput::from_file(&path)
         .unwrap()
         .job(10, 1, false)
         .unwrap();

@@ -24,7 +24,7 @@ fn validate_all_passes_and_writes_the_report() {
         String::from_utf8_lossy(&out.stderr)
     );
     let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
-    for case in atmosim::validate::cases() {
+    for case in atmosim::compat::validate::cases() {
         assert!(report.contains(&format!("| {} |", case.name)), "{} missing", case.name);
         let png = std::fs::read(dir.path().join(format!("{}.png", case.name))).unwrap();
         assert_eq!(&png[1..4], b"PNG");

@@ -19,7 +19,7 @@ mod common;
 use std::f64::consts::PI;
 
 use atmosim::job::Sensor;
-use atmosim::sky_image;
+use atmosim::run::sky_image;
 use common::{Comparison, job, layers_toml};
 use glam::DVec3;
 
@@ -220,7 +220,7 @@ fn directions_in_the_sun_view_frame_hold_the_exact_single_scattering_stokes_vect
     let j = job(&text);
     let task = &j.tasks[0];
     let sun = task.sun.direction;
-    let rows = atmosim::render::render_task(&j, task, &|_| {}).radiance;
+    let rows = atmosim::run::render::render_task(&j, task, &|_| {}).radiance;
     let mut cmp = Comparison::default();
     for row in &rows {
         let d = row.direction.vector();

@@ -2,11 +2,11 @@
 
 mod common;
 
-use atmosim::camera::{Camera, PixelFilter};
-use atmosim::film::{PixelSampling, pixel_weights, render_layer};
+use atmosim::film::image::{PixelSampling, pixel_weights, render_layer};
 use atmosim::job::Sensor;
-use atmosim::render::{Direction, render_directions};
-use atmosim::stokes_frame::StokesFrame;
+use atmosim::polarization::stokes_frame::StokesFrame;
+use atmosim::run::render::{Direction, render_directions};
+use atmosim::sensor::camera::{Camera, PixelFilter};
 use common::{Comparison, job};
 
 const SKY: &str = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\

@@ -31,8 +31,8 @@ use std::f64::consts::PI;
 use std::io::Write;
 use std::path::PathBuf;
 
-use atmosim::render::{Direction, render_directions_all};
-use atmosim::stats::two_sided_tail;
+use atmosim::compat::stats::two_sided_tail;
+use atmosim::run::render::{Direction, render_directions_all};
 use common::{Comparison, job, layers_toml, samples, table};
 
 /// The limits: on |ΔI/I|, and on π|ΔQ| and π|ΔU| (Natraj's
@@ -82,7 +82,7 @@ fn done_rows(path: &PathBuf, n: u64) -> Vec<Vec<f64>> {
 
 /// A CSV row: the place (τ, albedo, μ0, level, view zenith, azimuth), the
 /// paths, then I, Q, U each as estimate, standard error and reference.
-fn sweep_row(place: &[f64], n: u64, tally: &atmosim::render::Tally, reference: &[f64]) -> Vec<f64> {
+fn sweep_row(place: &[f64], n: u64, tally: &atmosim::run::render::Tally, reference: &[f64]) -> Vec<f64> {
     let (m, se) = (tally.mean(), tally.standard_error());
     let mut row = place.to_vec();
     row.push(n as f64);
@@ -135,7 +135,7 @@ fn render_slab(
     n: u64,
     seed: u64,
     sun_sampling: &str,
-) -> Vec<Vec<atmosim::render::Tally>> {
+) -> Vec<Vec<atmosim::run::render::Tally>> {
     let text = format!(
         "{}[ground]\nalbedo = {albedos:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = {seed}\nsun_sampling = \"{sun_sampling}\"\n",
         layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),

@@ -34,13 +34,13 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use atmosim::Error;
-use atmosim::checkpoint::{StateFile, shard_path, write_state};
+use atmosim::compat::uvspec::{IGNORED_KEYWORDS, NUMERICAL_KEYWORDS, UvspecInput};
+use atmosim::io::exr::{Channel, read_exr_bytes, write_exr};
 use atmosim::job::{Job, fnv1a};
-use atmosim::openexr::{Channel, read_exr_bytes, write_exr};
-use atmosim::render::Tally;
-use atmosim::shard::Shard;
-use atmosim::unit::Layout;
-use atmosim::uvspec::{IGNORED_KEYWORDS, NUMERICAL_KEYWORDS, UvspecInput};
+use atmosim::run::checkpoint::{StateFile, shard_path, write_state};
+use atmosim::run::render::Tally;
+use atmosim::run::shard::Shard;
+use atmosim::run::work_unit::Layout;
 use proptest::prelude::*;
 use proptest::sample::{Index, select, subsequence};
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
@@ -1664,7 +1664,7 @@ fn merge_of_a_shard_of_a_huge_count_names_a_few_missing() {
     std::fs::create_dir_all(path.parent().unwrap()).unwrap();
     write_state(&job, &state, &path).unwrap();
     let start = Instant::now();
-    let e = atmosim::merge::merge(dir.path(), &|_: &str| {}).unwrap_err();
+    let e = atmosim::run::merge::merge(dir.path(), &|_: &str| {}).unwrap_err();
     assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
     let message = e.to_string();
     assert!(e.is_user_error(), "{message}");
@@ -1701,9 +1701,9 @@ fn exr_reader_errors_are_user_errors() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("image.exr");
     std::fs::write(&path, b"not an EXR").unwrap();
-    let e = atmosim::openexr::read_exr(&path).err().unwrap();
+    let e = atmosim::io::exr::read_exr(&path).err().unwrap();
     assert!(e.is_user_error() && e.to_string().contains("image.exr"), "{e}");
-    let missing = atmosim::openexr::read_exr(&dir.path().join("missing.exr"))
+    let missing = atmosim::io::exr::read_exr(&dir.path().join("missing.exr"))
         .err()
         .unwrap();
     assert!(

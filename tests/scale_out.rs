@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use assert_cmd::Command;
 use assert_cmd::cargo::CommandCargoExt;
-use atmosim::openexr::read_exr;
+use atmosim::io::exr::read_exr;
 use common::csv_values;
 
 mod common;

@@ -7,8 +7,8 @@
 
 mod common;
 
-use atmosim::render::{Tally, render_directions_all};
-use atmosim::solar::SolarSpectrum;
+use atmosim::physics::solar::SolarSpectrum;
+use atmosim::run::render::{Tally, render_directions_all};
 use common::{Comparison, directions, job};
 
 /// Six-point Gauss–Legendre nodes and weights on [−1, 1].
@@ -234,8 +234,8 @@ fn absolute_bands_average_the_source_weighted_radiance() {
 }
 
 /// The fluxes rows of `job`'s first task, `[channel][albedo]`.
-fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::render::Fluxes>> {
-    let result = atmosim::render::render_task(job, &job.tasks[0], &|_| {});
+fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::run::render::Fluxes>> {
+    let result = atmosim::run::render::render_task(job, &job.tasks[0], &|_| {});
     let na = job.render.albedos.len();
     result
         .fluxes
@@ -287,7 +287,7 @@ fn band_fluxes_average_the_fluxes_over_the_band() {
             ];
             for (w, (name, parts)) in channels.iter().enumerate() {
                 let got = shared[w][a];
-                let sum = |f: &dyn Fn(&atmosim::render::Fluxes) -> f64| {
+                let sum = |f: &dyn Fn(&atmosim::run::render::Fluxes) -> f64| {
                     parts.iter().map(|&(k, c)| c * f(&reference[k][a])).sum::<f64>()
                 };
                 let e_dir = sum(&|f| f.e_dir);
@@ -296,7 +296,7 @@ fn band_fluxes_average_the_fluxes_over_the_band() {
                     "{units} {name} albedo {albedo}: E_dir {} vs quadrature {e_dir}",
                     got.e_dir
                 );
-                let var = |f: &dyn Fn(&atmosim::render::Fluxes) -> f64| {
+                let var = |f: &dyn Fn(&atmosim::run::render::Fluxes) -> f64| {
                     parts
                         .iter()
                         .map(|&(k, c)| (c * f(&reference[k][a])).powi(2))
@@ -339,7 +339,7 @@ fn band_sun_tables_average_the_direct_beam_over_the_band() {
         let banded = job(&format!(
             "{base}[spectrum]\nwavelengths_nm = [340.0, 620.0]\nband_width_nm = 40.0\n"
         ));
-        let table = atmosim::sun_table::sun_csv(&banded, &banded.tasks[0], None);
+        let table = atmosim::io::sun_table::sun_csv(&banded, &banded.tasks[0], None);
         let rows: Vec<Vec<f64>> = table
             .lines()
             .skip(1)

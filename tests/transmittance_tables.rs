@@ -4,9 +4,11 @@
 
 mod common;
 
-use atmosim::medium::{Medium, MediumModel};
-use atmosim::shell::Geometry;
-use atmosim::transmittance::{Estimator, Grid, Sight, TransmittanceSpec, compute, line_of_sight, optical_depth_to};
+use atmosim::geometry::shell::Geometry;
+use atmosim::transport::medium::{Medium, MediumModel};
+use atmosim::transport::transmittance::{
+    Estimator, Grid, Sight, TransmittanceSpec, compute, line_of_sight, optical_depth_to,
+};
 use common::{Comparison, job};
 
 fn media(text: &str, model: MediumModel, scale: f64) -> (Vec<Medium>, Geometry) {
@@ -270,7 +272,7 @@ fn band_tables_average_the_transmittance_over_the_band() {
     };
     let task = &banded.tasks[0];
     let scene = banded.spectral_scene(task).expect("bands use shared paths");
-    let table = atmosim::transmittance::compute_bands(&spec, &scene, 1.0);
+    let table = atmosim::transport::transmittance::compute_bands(&spec, &scene, 1.0);
     for (w, centre) in [340.0, 620.0].into_iter().enumerate() {
         let nodes: Vec<String> = (0..400)
             .map(|k| format!("{}", centre - 20.0 + 40.0 * (k as f64 + 0.5) / 400.0))

@@ -5,7 +5,7 @@
 
 mod common;
 
-use atmosim::render::{Direction, render_directions, render_fluxes};
+use atmosim::run::render::{Direction, render_directions, render_fluxes};
 use common::{Comparison, directions, job, layers_toml};
 
 #[test]
@@ -173,7 +173,8 @@ fn all_albedos_from_one_render_equal_separate_renders() {
         let all = job(&format!(
             "{base}[ground]\nalbedo = [0.0, 0.3, 0.6, 1.0]\n[observer]\naltitude_km = 0.5\n"
         ));
-        let together = atmosim::render::render_directions_all(&all.scene(0), 0.5, &dirs, 20_000, 1, 0).swap_remove(0);
+        let together =
+            atmosim::run::render::render_directions_all(&all.scene(0), 0.5, &dirs, 20_000, 1, 0).swap_remove(0);
         let mut cmp = Comparison::default();
         for (i, a) in albedos.iter().enumerate() {
             let one = job(&format!(
@@ -255,10 +256,10 @@ fn shared_paths_against_single_channels(base: &str, wavelengths: &[f64], band_wi
     let analog = job(&analog);
     let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]);
     let h = j.observer_altitude_km;
-    let shared = atmosim::render::render_directions_all(&spectral, h, &dirs, samples, 1, 0);
+    let shared = atmosim::run::render::render_directions_all(&spectral, h, &dirs, samples, 1, 0);
     let mut cmp = Comparison::default();
     for (w, lambda) in wavelengths.iter().enumerate() {
-        let alone = atmosim::render::render_directions_all(&analog.scene(w), h, &dirs, samples, 50 + w as u64, 0)
+        let alone = atmosim::run::render::render_directions_all(&analog.scene(w), h, &dirs, samples, 50 + w as u64, 0)
             .swap_remove(0);
         for a in 0..2 {
             cmp.add_tallies(&format!("{lambda} nm albedo {a}"), &shared[w][a], &alone[a]);
@@ -403,7 +404,7 @@ fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
     // 0.3, 12 directions) with every flight analog and no split — the
     // estimator `bench --ratios` times against the default — and with the
     // default forced flights and split first vertex: the same radiances.
-    let reference = atmosim::bench::REFERENCE_JOB;
+    let reference = atmosim::run::bench::REFERENCE_JOB;
     let run = |keys: &str, samples: u64, seed: u64| {
         let j = job(&reference.replace("polarized = true", &format!("polarized = true\n{keys}")));
         render_directions(

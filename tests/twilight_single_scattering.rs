@@ -15,10 +15,10 @@
 mod common;
 
 use atmosim::job::Job;
-use atmosim::medium::{Medium, MediumModel};
-use atmosim::phase::PhaseFunction;
-use atmosim::render::Direction;
-use atmosim::tracking::{self, Ray, WalkEnd};
+use atmosim::polarization::phase::PhaseFunction;
+use atmosim::run::render::Direction;
+use atmosim::transport::medium::{Medium, MediumModel};
+use atmosim::transport::tracking::{self, Ray, WalkEnd};
 use common::{Comparison, directions, job, render};
 
 /// Directions seen from the ground, and from 10 km (also looking down, to

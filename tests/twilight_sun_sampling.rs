@@ -22,8 +22,8 @@ mod common;
 
 use std::time::Instant;
 
-use atmosim::integrator::SunSampling;
-use atmosim::render::Tally;
+use atmosim::run::render::Tally;
+use atmosim::transport::integrator::SunSampling;
 use common::{Comparison, directions, job, render, samples};
 
 const SEEDS: u64 = 16;

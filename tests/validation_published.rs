@@ -6,8 +6,8 @@
 
 mod common;
 
-use atmosim::stats::sidak_threshold;
-use atmosim::validate::{iprt_b, statistics};
+use atmosim::compat::stats::sidak_threshold;
+use atmosim::compat::validate::{iprt_b, statistics};
 use common::table;
 
 #[test]

@@ -5,13 +5,13 @@ use std::path::Path;
 
 use super::Ctx;
 use super::raw::{RawAerosolLayer, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
-use crate::aerosol::Aerosol;
 use crate::atmosphere::{AerosolLayer, BuildError, ExplicitLayer, ProfileSpec};
-use crate::data;
 use crate::error::{Error, Result};
-use crate::ozone::OzoneModel;
-use crate::profile::GasProfile;
-use crate::rayleigh::RayleighModel;
+use crate::physics::aerosol::Aerosol;
+use crate::physics::data;
+use crate::physics::ozone::OzoneModel;
+use crate::physics::profile::GasProfile;
+use crate::physics::rayleigh::RayleighModel;
 
 /// The profile spec (without visibility) and the requested visibilities
 /// (`[None]` when not given).

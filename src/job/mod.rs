@@ -11,14 +11,14 @@ use serde::Deserialize;
 
 use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
-use crate::medium::MediumModel;
-use crate::ozone::OzoneModel;
-use crate::rayleigh::RayleighModel;
-use crate::shell::Geometry;
-use crate::solar::SolarSpectrum;
-use crate::spectral::{Channel, MediumSettings, Scene};
-use crate::sun::Sun;
-use crate::transmittance::TransmittanceSpec;
+use crate::geometry::shell::Geometry;
+use crate::geometry::sun::Sun;
+use crate::physics::ozone::OzoneModel;
+use crate::physics::rayleigh::RayleighModel;
+use crate::physics::solar::SolarSpectrum;
+use crate::transport::medium::MediumModel;
+use crate::transport::spectral::{Channel, MediumSettings, Scene};
+use crate::transport::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
 use spectrum::{band_error, band_widths};
@@ -31,6 +31,7 @@ pub const DEFAULT_TOP_KM: f64 = 100.0;
 pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
 
 mod atmosphere;
+pub mod input;
 mod raw;
 mod render;
 mod spectrum;
@@ -345,7 +346,7 @@ impl Job {
 
     /// Reads and resolves a job file.
     pub fn from_file(path: &Path) -> Result<Job> {
-        let text = crate::input::read_text(path)?;
+        let text = crate::job::input::read_text(path)?;
         let dir = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, &path.display().to_string(), dir)
     }

@@ -8,12 +8,12 @@ use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
     RawSensor, RawSensorKind, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
 };
-use crate::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::error::Result;
-use crate::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
-use crate::medium::MediumModel;
-use crate::render::Direction;
-use crate::stokes_frame::StokesFrame;
+use crate::polarization::stokes_frame::StokesFrame;
+use crate::run::render::Direction;
+use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
+use crate::transport::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
+use crate::transport::medium::MediumModel;
 
 /// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;

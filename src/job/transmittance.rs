@@ -3,7 +3,7 @@
 use super::Ctx;
 use super::raw::{RawEstimator, RawTransmittance};
 use crate::error::Result;
-use crate::transmittance::{Estimator, Grid, SKY_MODEL_MAX_DISTANCE_KM, TransmittanceSpec};
+use crate::transport::transmittance::{Estimator, Grid, SKY_MODEL_MAX_DISTANCE_KM, TransmittanceSpec};
 
 /// Default altitude nodes of the sky-model layout.
 pub const DEFAULT_ALTITUDE_NODES: usize = 32;

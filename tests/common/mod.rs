@@ -7,10 +7,10 @@
 
 use std::path::Path;
 
-use atmosim::data::Table;
+use atmosim::compat::stats::sidak_threshold;
 use atmosim::job::Job;
-use atmosim::render::{Direction, Tally, render_directions};
-use atmosim::stats::sidak_threshold;
+use atmosim::physics::data::Table;
+use atmosim::run::render::{Direction, Tally, render_directions};
 
 /// Reads a table of the repository (validation/…).
 pub fn table(rel: &str) -> Table {

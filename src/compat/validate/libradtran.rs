@@ -1,0 +1,237 @@
+//! The libRadtran 2.0.3 (uvspec) runs at 540 nm, sun zenith 45°, observers
+//! at 0 and 10 km (validation/libradtran/uvspec_540nm_sza45.txt), each
+//! reproduced from its uvspec input file (validation/libradtran/*.inp)
+//! through `atmosim uvspec`'s parser, so the cases also pin the umu/phi
+//! mapping: every (umu, phi) of an input must land on a reference row's
+//! (view zenith, azimuth).
+//!
+//! Geometry per comparison: polRadtran and `disort_pp` are plane-parallel,
+//! and so is atmosim. `disort_ps` is pseudo-spherical, which attenuates only
+//! the direct beam along its spherical path and keeps the diffuse field
+//! plane-parallel; atmosim's `pseudo_spherical` geometry does the same, so
+//! that the comparison tests the transport rather than the approximation
+//! (full spherical geometry differs from it by several per cent near the
+//! horizon, where the line of sight's air mass differs).
+
+use super::cases::push;
+use super::{Case, Value};
+use crate::compat::uvspec::UvspecInput;
+use crate::error::{Error, Result};
+use crate::physics::data::Table;
+use crate::run::render::{render_directions_all, stream_key};
+
+const REFERENCE: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/validation/libradtran/uvspec_540nm_sza45.txt"
+));
+
+macro_rules! embedded {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/validation/libradtran/", $name)))),*]
+    };
+}
+
+/// The input files and the files they name.
+pub static FILES: &[(&str, &str)] = embedded![
+    "A_disort_pp.inp",
+    "A_disort_ps.inp",
+    "A_polrad.inp",
+    "B_disort_pp.inp",
+    "B_disort_ps.inp",
+    "B_polrad.inp",
+    "H_disort_pp.inp",
+    "H_disort_ps.inp",
+    "H_540nm_aer_tau.txt",
+    "H_540nm_aer_ssa.txt",
+    "H_540nm_aer_gg.txt",
+];
+
+/// An embedded uvspec input, parsed (its files resolved among [`FILES`]).
+pub fn input(name: &str) -> Result<UvspecInput> {
+    let find = |n: &str| FILES.iter().find(|(f, _)| *f == n).map(|(_, t)| *t);
+    let text = find(name).ok_or_else(|| Error::data("validation", format!("no embedded input `{name}`")))?;
+    let resolve = |n: &str| {
+        find(n)
+            .map(str::to_string)
+            .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::NotFound, "not embedded"))
+    };
+    UvspecInput::parse(text, &format!("validation/libradtran/{name}"), &resolve)
+}
+
+/// Relative accuracy floor of scalar DISORT (32 streams).
+const DISORT_FLOOR: f64 = 1e-5;
+/// Relative accuracy floor assumed for polRadtran (16 streams).
+const POLRAD_FLOOR: f64 = 2e-4;
+/// Directions closer than this to the sun are left out of the statistics
+/// of the Mie (B) cases.
+const SUN_EXCLUSION_DEG: f64 = 25.0;
+
+/// Compares the run of `inp` with the reference rows of `atmosphere` and
+/// `solver` (codes of the reference file).
+fn compare(
+    inp: &str,
+    atmosphere: f64,
+    solver: f64,
+    floor_rel: f64,
+    exclude_sun: bool,
+    samples: u64,
+) -> Result<Vec<Value>> {
+    let reference = Table::parse("uvspec_540nm_sza45.txt", REFERENCE, 9)?;
+    let input = input(inp)?;
+    let job = input.job(samples, 17, false)?;
+    let directions = input.directions();
+    let dirs: Vec<_> = directions.iter().map(|(_, _, d)| *d).collect();
+    let sun = job.tasks[0].sun.direction;
+    let mut values = Vec::new();
+    for task in &job.tasks {
+        let z = task.observer_altitude_km;
+        let scene = job.scene_for(task, 0);
+        let tallies = render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0))
+            .swap_remove(0)
+            .swap_remove(0);
+        for ((umu, phi, d), t) in directions.iter().zip(&tallies) {
+            let row = reference
+                .rows
+                .iter()
+                .find(|r| {
+                    r[0] == atmosphere && r[1] == solver && r[2] == z && (r[3] - d.view_zenith_deg).abs() < 1e-3 && {
+                        let da = (r[4] - d.azimuth_deg).rem_euclid(360.0);
+                        da.min(360.0 - da) < 1e-6
+                    }
+                })
+                .ok_or_else(|| {
+                    Error::data(
+                        "uvspec_540nm_sza45.txt",
+                        format!(
+                            "no reference row for {inp} zout {z} umu {umu} phi {phi} (θ {:.4}, φ {})",
+                            d.view_zenith_deg, d.azimuth_deg
+                        ),
+                    )
+                })?;
+            let polarized = row[8] == 1.0;
+            let components: &[usize] = if polarized { &[0, 1, 2] } else { &[0] };
+            let from_sun = d.vector().dot(sun).clamp(-1.0, 1.0).acos().to_degrees();
+            let label = format!("zout {z} umu {umu} phi {phi}");
+            let in_stats = !exclude_sun || from_sun > SUN_EXCLUSION_DEG;
+            push(
+                &mut values,
+                &label,
+                *d,
+                t,
+                components,
+                &row[5..8],
+                &[],
+                floor_rel * row[5],
+                in_stats,
+            );
+        }
+    }
+    Ok(values)
+}
+
+const DISORT_FLOOR_NOTE: &str = "1e-5 × I: 7 printed digits (5e-7), 32-stream truncation (32 and 128 streams agree \
+     to 5e-6 for Rayleigh and HG layers, validation/disort/pydisort.txt), atmosim's layer optical depths against \
+     uvspec's (Rayleigh 1e-6 per layer, ozone column 1e-5: tests/atmosphere_libradtran.rs)";
+const POLRAD_FLOOR_NOTE: &str = "2e-4 × I (and of Q, U), assumed: 16-stream polRadtran has no convergence study \
+     here; 2e-4 is the size of the polrad − disort_pp difference of the ground-reflected radiance at 0 km (1.8e-4), \
+     which bounds truncation plus polarisation in the downward flux";
+const MIE_NOTE: &str = "the reference uses OPAC's Mie phase functions, atmosim Henyey–Greenstein with the same g: \
+     not the same physics, so no z test; statistics over directions more than 25° from the sun; within 25° the \
+     Mie forward peak is up to ×6 the HG one (see README, Validation)";
+
+/// The libRadtran cases.
+pub(super) fn cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "libradtran_A_polrad",
+            title: "libRadtran 540 nm, gases only (A), polarised, against polRadtran",
+            reference: "validation/libradtran/uvspec_540nm_sza45.txt, atmosphere A, polrad (I, Q, U); input \
+                        validation/libradtran/A_polrad.inp",
+            setup: "plane-parallel (as polRadtran), polarised, R 6370 km, top 120 km, albedo 0.2",
+            floor: POLRAD_FLOOR_NOTE,
+            default_samples: 10_000,
+            informational: false,
+            ratio_limit: None,
+            run: |n| compare("A_polrad.inp", 0.0, 2.0, POLRAD_FLOOR, false, n),
+        },
+        Case {
+            name: "libradtran_A_disort_pp",
+            title: "libRadtran 540 nm, gases only (A), scalar, against plane-parallel DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere A, disort_pp; input A_disort_pp.inp",
+            setup: "plane-parallel, scalar",
+            floor: DISORT_FLOOR_NOTE,
+            default_samples: 10_000,
+            informational: false,
+            ratio_limit: None,
+            run: |n| compare("A_disort_pp.inp", 0.0, 0.0, DISORT_FLOOR, false, n),
+        },
+        Case {
+            name: "libradtran_A_disort_ps",
+            title: "libRadtran 540 nm, gases only (A), scalar, against pseudo-spherical DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere A, disort_ps; input A_disort_ps.inp",
+            setup: "pseudo-spherical (direct beam through spherical shells of 6370 km, diffuse transport \
+                    plane-parallel: what disort_ps computes), scalar",
+            floor: DISORT_FLOOR_NOTE,
+            default_samples: 10_000,
+            informational: false,
+            ratio_limit: None,
+            run: |n| compare("A_disort_ps.inp", 0.0, 1.0, DISORT_FLOOR, false, n),
+        },
+        Case {
+            name: "libradtran_H_disort_pp",
+            title: "libRadtran 540 nm, OPAC as Henyey–Greenstein (H), scalar, against plane-parallel DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere H, disort_pp; input H_disort_pp.inp with \
+                        H_540nm_aer_{tau,ssa,gg}.txt",
+            setup: "plane-parallel, scalar, aerosol from the per-layer τ, ω, g files",
+            floor: DISORT_FLOOR_NOTE,
+            default_samples: 10_000,
+            informational: false,
+            ratio_limit: None,
+            run: |n| compare("H_disort_pp.inp", 2.0, 0.0, DISORT_FLOOR, false, n),
+        },
+        Case {
+            name: "libradtran_H_disort_ps",
+            title: "libRadtran 540 nm, OPAC as Henyey–Greenstein (H), scalar, against pseudo-spherical DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere H, disort_ps; input H_disort_ps.inp",
+            setup: "pseudo-spherical (as disort_ps), scalar",
+            floor: DISORT_FLOOR_NOTE,
+            default_samples: 10_000,
+            informational: false,
+            ratio_limit: None,
+            run: |n| compare("H_disort_ps.inp", 2.0, 1.0, DISORT_FLOOR, false, n),
+        },
+        Case {
+            name: "libradtran_B_disort_pp",
+            title: "libRadtran 540 nm, OPAC with Mie phase functions (B), scalar, plane-parallel DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere B, disort_pp; input B_disort_pp.inp",
+            setup: "plane-parallel, scalar, OPAC continental_average (HG phase function with the mixture's g)",
+            floor: MIE_NOTE,
+            default_samples: 10_000,
+            informational: true,
+            ratio_limit: None,
+            run: |n| compare("B_disort_pp.inp", 1.0, 0.0, DISORT_FLOOR, true, n),
+        },
+        Case {
+            name: "libradtran_B_disort_ps",
+            title: "libRadtran 540 nm, OPAC with Mie phase functions (B), scalar, pseudo-spherical DISORT",
+            reference: "uvspec_540nm_sza45.txt, atmosphere B, disort_ps; input B_disort_ps.inp",
+            setup: "pseudo-spherical, scalar, OPAC continental_average (HG)",
+            floor: MIE_NOTE,
+            default_samples: 10_000,
+            informational: true,
+            ratio_limit: None,
+            run: |n| compare("B_disort_ps.inp", 1.0, 1.0, DISORT_FLOOR, true, n),
+        },
+        Case {
+            name: "libradtran_B_polrad",
+            title: "libRadtran 540 nm, OPAC with Mie phase functions (B), polarised, polRadtran",
+            reference: "uvspec_540nm_sza45.txt, atmosphere B, polrad; input B_polrad.inp",
+            setup: "plane-parallel, polarised, OPAC continental_average (HG, no polarising aerosol elements)",
+            floor: MIE_NOTE,
+            default_samples: 10_000,
+            informational: true,
+            ratio_limit: None,
+            run: |n| compare("B_polrad.inp", 1.0, 2.0, POLRAD_FLOOR, true, n),
+        },
+    ]
+}

@@ -1,0 +1,200 @@
+//! Writing results: CSV tables for the `directions` sensor and the fluxes,
+//! always through a temporary file renamed into place, so a crash never
+//! leaves a file that looks complete.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::io::exr::{Channel, wavelength_label, write_exr};
+use crate::run::render::{Direction, Fluxes, Tally};
+use crate::transport::transmittance::{Grid, Table as TransmittanceTable};
+
+/// Header of the radiance CSV of a `directions` sensor.
+pub const RADIANCE_CSV_HEADER: &str =
+    "wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples";
+/// Header of the flux CSV.
+pub const FLUX_CSV_HEADER: &str = "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples";
+
+/// The radiance of one direction at one wavelength and albedo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadianceRow {
+    pub wavelength_nm: f64,
+    pub albedo: f64,
+    pub direction: Direction,
+    pub tally: Tally,
+}
+
+/// The fluxes at one wavelength and albedo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FluxRow {
+    pub wavelength_nm: f64,
+    pub albedo: f64,
+    pub altitude_km: f64,
+    pub fluxes: Fluxes,
+}
+
+/// The radiance CSV text.
+pub fn radiance_csv(rows: &[RadianceRow]) -> String {
+    let mut s = String::from(RADIANCE_CSV_HEADER);
+    s.push('\n');
+    for r in rows {
+        let (m, se) = (r.tally.mean(), r.tally.standard_error());
+        s.push_str(&format!(
+            "{},{},{},{},{:.9e},{:.9e},{:.9e},{:.9e},{:.4e},{:.4e},{:.4e},{:.4e},{}\n",
+            r.wavelength_nm,
+            r.albedo,
+            r.direction.view_zenith_deg,
+            r.direction.azimuth_deg,
+            m[0],
+            m[1],
+            m[2],
+            m[3],
+            se[0],
+            se[1],
+            se[2],
+            se[3],
+            r.tally.samples
+        ));
+    }
+    s
+}
+
+/// The flux CSV text.
+pub fn flux_csv(rows: &[FluxRow]) -> String {
+    let mut s = String::from(FLUX_CSV_HEADER);
+    s.push('\n');
+    for r in rows {
+        let f = &r.fluxes;
+        s.push_str(&format!(
+            "{},{},{},{:.9e},{:.9e},{:.9e},{:.4e},{:.4e},{}\n",
+            r.wavelength_nm, r.albedo, r.altitude_km, f.e_dir, f.e_down, f.e_up, f.e_down_se, f.e_up_se, f.samples
+        ));
+    }
+    s
+}
+
+/// Writes `contents` to `path` atomically: a temporary file in the same
+/// directory, flushed and synced, then renamed over `path`.
+pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<()> {
+    write_atomic_with(path, |w| w.write_all(contents))
+}
+
+/// [`write_atomic`] with the contents streamed by `write` (which must not
+/// buffer past its return: flush a buffered writer before returning).
+pub fn write_atomic_with(path: &Path, write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+    let io = |e| Error::io(path, e);
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        write(&mut f)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)?;
+        // Make the rename itself durable (best effort: not every file
+        // system lets a directory be synced).
+        if let Ok(d) = std::fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+/// Header of the transmittance CSV (with `sqrt_T` appended when exported).
+pub const TRANSMITTANCE_CSV_HEADER: &str = "wavelength_nm,altitude_km,distance_km,T,T_se,blocked";
+
+/// The transmittance CSV of one task: one row per wavelength, altitude and
+/// distance (in that nesting).
+pub fn transmittance_csv(wavelengths_nm: &[f64], grid: &Grid, table: &TransmittanceTable, sqrt: bool) -> String {
+    let mut s = String::from(TRANSMITTANCE_CSV_HEADER);
+    s.push_str(if sqrt { ",sqrt_T\n" } else { "\n" });
+    let n_d = grid.distances_km.len();
+    for (w, lambda) in wavelengths_nm.iter().enumerate() {
+        for (k, (&t, &se)) in table.t[w].iter().zip(&table.se[w]).enumerate() {
+            let (a, d) = (grid.altitudes_km[k / n_d], grid.distances_km[k % n_d]);
+            s.push_str(&format!(
+                "{lambda},{a},{d},{t:.9e},{se:.4e},{}",
+                u8::from(table.blocked[k])
+            ));
+            if sqrt {
+                s.push_str(&format!(",{:.9e}", t.max(0.0).sqrt()));
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// The transmittance EXR of one task: width = distance nodes, height =
+/// altitude nodes (row 0 = the lowest altitude), channels `<λ>nm.T`,
+/// `<λ>nm.T_se` (and `<λ>nm.sqrtT`) per wavelength and `blocked`.
+pub fn write_transmittance_exr(
+    path: &Path,
+    wavelengths_nm: &[f64],
+    grid: &Grid,
+    table: &TransmittanceTable,
+    sqrt: bool,
+    attributes: &[(String, String)],
+) -> Result<()> {
+    let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+    let mut channels = Vec::new();
+    for (w, lambda) in wavelengths_nm.iter().enumerate() {
+        channels.push(Channel {
+            name: format!("{}.T", wavelength_label(*lambda)),
+            samples: f32s(&table.t[w]),
+        });
+        channels.push(Channel {
+            name: format!("{}.T_se", wavelength_label(*lambda)),
+            samples: f32s(&table.se[w]),
+        });
+        if sqrt {
+            let r: Vec<f64> = table.t[w].iter().map(|t| t.max(0.0).sqrt()).collect();
+            channels.push(Channel {
+                name: format!("{}.sqrtT", wavelength_label(*lambda)),
+                samples: f32s(&r),
+            });
+        }
+    }
+    channels.push(Channel {
+        name: "blocked".into(),
+        samples: table.blocked.iter().map(|&b| f32::from(u8::from(b))).collect(),
+    });
+    write_exr(
+        path,
+        grid.distances_km.len(),
+        grid.altitudes_km.len(),
+        channels,
+        attributes,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_write_replaces_and_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("sub").join("a.csv");
+        write_atomic(&p, b"one").unwrap();
+        write_atomic(&p, b"two").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        let names: Vec<_> = std::fs::read_dir(p.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+    }
+}

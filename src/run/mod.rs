@@ -1,0 +1,12 @@
+//! Scheduling: tasks and their work units, shards, checkpoints, merges and plans. No physics.
+
+pub mod bench;
+pub mod checkpoint;
+pub mod merge;
+pub mod out_dir;
+pub mod plan;
+pub mod render;
+pub mod shard;
+pub mod sky_image;
+pub mod task_output;
+pub mod work_unit;

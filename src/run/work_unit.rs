@@ -1,0 +1,797 @@
+//! A work unit: one task of a job, or one shard of its samples (see
+//! [`crate::run::shard`]), rendered in waves so that it can be checkpointed,
+//! stopped (SIGTERM) and resumed, and whose sums add up with those of the
+//! task's other shards.
+//!
+//! A task is a fixed list of *estimates* ([`Layout`]): per viewing direction
+//! (all wavelengths along shared paths, or one wavelength), the downward and
+//! upward fluxes per wavelength, or every pixel of an image. The state of a
+//! unit ([`UnitState`]) is, per estimate, how much of the shard's sample
+//! range is done and the running sums. Sums always grow in sample order
+//! (sample blocks for directions, samples per pixel for images), so a run
+//! stopped after any wave and resumed from its checkpoint gives bit for bit
+//! the sums of an uninterrupted run. Shards of a task are summed in shard
+//! order by [`crate::run::merge`]; that regrouping of the same additions changes
+//! the result only by rounding (≲ 1e-15 relative).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use crate::error::Result;
+use crate::film::image::{self, ActivePixels, ImageLayer, PixelSampling};
+use crate::sensor::camera::Camera;
+
+use crate::io::output::{FluxRow, RadianceRow};
+use crate::job::{Job, Sensor, Task};
+use crate::run::render::{self, BLOCK, Fluxes, RenderResult, Tally};
+use crate::run::shard::Shard;
+use crate::run::sky_image::SkyImage;
+use crate::transport::spectral::Scene;
+
+/// Where an estimate's radiance comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Source {
+    /// All of the job's wavelengths along shared paths: wavelengths × albedos values.
+    Shared,
+    /// One wavelength (index): one value per albedo.
+    Wavelength(usize),
+}
+
+/// What an estimate measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EstimateKind {
+    /// The radiance of viewing direction `direction` (index).
+    Direction { source: Source, direction: usize },
+    /// The downward (`up` false) or upward irradiance: at one
+    /// wavelength, or at every channel along shared paths (bands, whose
+    /// wavelengths vary per path).
+    Flux { source: Source, up: bool },
+    /// Every pixel of the image.
+    Pixels { source: Source },
+}
+
+impl EstimateKind {
+    /// The wavelengths the estimate's paths carry.
+    pub fn source(&self) -> Source {
+        match *self {
+            EstimateKind::Direction { source, .. }
+            | EstimateKind::Flux { source, .. }
+            | EstimateKind::Pixels { source } => source,
+        }
+    }
+}
+
+/// One estimate of a task: its kind, its stream keys and the number of
+/// values each sample gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub kind: EstimateKind,
+    pub keys: [u64; 3],
+    pub values: usize,
+}
+
+/// The stream key's wavelength slot for shared spectral paths.
+pub const SHARED_STREAM: usize = 0xFFFF;
+
+/// The estimates of a task, in a fixed order.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    pub estimates: Vec<Estimate>,
+    /// Samples per direction or pixel of the whole task.
+    pub samples: u64,
+    /// Pixels of an image sensor (0 for directions).
+    pub pixels: usize,
+    /// The pixels that are traced (image sensors): how many paths a range
+    /// of items holds (see [`ActivePixels`]).
+    pub active: Option<ActivePixels>,
+    /// True when the wavelengths share their paths.
+    pub shared: bool,
+    /// Paths of the first wave (a wave: blocks of one direction, or the
+    /// same number of samples for every pixel); checkpoints and stop
+    /// requests are honoured between waves.
+    pub wave_paths: u64,
+    /// Resize waves to last about [`WAVE_SECONDS`] from the measured rate
+    /// (the partition into waves never changes the sums).
+    pub adaptive_waves: bool,
+}
+
+impl Layout {
+    /// The estimates of `task`; `spectral` tells whether the job's
+    /// wavelengths share paths for this task (`job.spectral_scene(task)`).
+    pub fn new(job: &Job, task: &Task, shared: bool) -> Layout {
+        let spec = &job.render;
+        let (nw, na) = (job.wavelengths_nm.len(), spec.albedos.len());
+        let seed = spec.seed;
+        let key = |w: usize| render::stream_key(task.index, w);
+        let mut estimates = Vec::new();
+        let (mut pixels, mut active) = (0, None);
+        match &spec.sensor {
+            Sensor::Directions(directions) => {
+                if shared {
+                    for d in 0..directions.len() {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::Direction {
+                                source: Source::Shared,
+                                direction: d,
+                            },
+                            keys: [seed, key(SHARED_STREAM), d as u64],
+                            values: nw * na,
+                        });
+                    }
+                }
+                let shared_fluxes = shared && job.banded();
+                if spec.fluxes && shared_fluxes {
+                    for up in [false, true] {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::Flux {
+                                source: Source::Shared,
+                                up,
+                            },
+                            keys: [seed, key(SHARED_STREAM), render::flux_stream(up)],
+                            values: nw * na,
+                        });
+                    }
+                }
+                for w in 0..nw {
+                    if !shared {
+                        for d in 0..directions.len() {
+                            estimates.push(Estimate {
+                                kind: EstimateKind::Direction {
+                                    source: Source::Wavelength(w),
+                                    direction: d,
+                                },
+                                keys: [seed, key(w), d as u64],
+                                values: na,
+                            });
+                        }
+                    }
+                    if spec.fluxes && !shared_fluxes {
+                        for up in [false, true] {
+                            estimates.push(Estimate {
+                                kind: EstimateKind::Flux {
+                                    source: Source::Wavelength(w),
+                                    up,
+                                },
+                                keys: [seed, key(w), render::flux_stream(up)],
+                                values: na,
+                            });
+                        }
+                    }
+                }
+            }
+            Sensor::Image(camera) => {
+                let traced = ActivePixels::new(camera);
+                pixels = traced.pixels() as usize;
+                active = Some(traced);
+                let sources: Vec<Source> = if shared {
+                    vec![Source::Shared]
+                } else {
+                    (0..nw).map(Source::Wavelength).collect()
+                };
+                for source in sources {
+                    let w = match source {
+                        Source::Shared => SHARED_STREAM,
+                        Source::Wavelength(w) => w,
+                    };
+                    estimates.push(Estimate {
+                        kind: EstimateKind::Pixels { source },
+                        keys: [seed, key(w), 0],
+                        values: match source {
+                            Source::Shared => nw * na,
+                            Source::Wavelength(_) => na,
+                        },
+                    });
+                }
+            }
+        }
+        Layout {
+            estimates,
+            samples: spec.samples,
+            pixels,
+            active,
+            shared,
+            wave_paths: 1 << 15,
+            adaptive_waves: true,
+        }
+    }
+
+    /// The work of estimate `e` in `shard`: sample blocks of a direction or
+    /// flux; the items of an image (its samples per pixel × its pixels, see
+    /// [`ActivePixels`]).
+    pub fn range(&self, e: usize, shard: Shard) -> std::ops::Range<u64> {
+        match self.estimates[e].kind {
+            EstimateKind::Pixels { .. } => {
+                let samples = shard.range(self.samples);
+                let p = self.pixels as u64;
+                samples.start * p..samples.end * p
+            }
+            _ => shard.range(self.samples.div_ceil(BLOCK)),
+        }
+    }
+
+    /// Tallies an estimate keeps: one per value (per pixel for images).
+    pub fn tallies(&self, e: usize) -> usize {
+        let est = &self.estimates[e];
+        match est.kind {
+            EstimateKind::Pixels { .. } => est.values * self.pixels,
+            _ => est.values,
+        }
+    }
+
+    /// Paths a shard traces along shared spectral paths (every channel at
+    /// once) and at single wavelengths, in that order: the two cost
+    /// differently per path (`plan`).
+    pub fn paths_by_source(&self, shard: Shard) -> (u64, u64) {
+        let mut paths = (0, 0);
+        for (e, estimate) in self.estimates.iter().enumerate() {
+            let n = self.paths_of(e, &self.range(e, shard));
+            match estimate.kind.source() {
+                Source::Shared => paths.0 += n,
+                Source::Wavelength(_) => paths.1 += n,
+            }
+        }
+        paths
+    }
+
+    /// Paths a shard traces in all.
+    pub fn paths(&self, shard: Shard) -> u64 {
+        (0..self.estimates.len())
+            .map(|e| self.paths_of(e, &self.range(e, shard)))
+            .sum()
+    }
+
+    /// Paths `state` has traced so far.
+    pub fn done_paths(&self, state: &UnitState) -> u64 {
+        (0..self.estimates.len())
+            .map(|e| {
+                let start = self.range(e, state.shard).start;
+                self.paths_of(e, &(start..start + state.done[e]))
+            })
+            .sum()
+    }
+
+    /// Paths of `work` (a part of [`Layout::range`]) of estimate `e`.
+    fn paths_of(&self, e: usize, work: &std::ops::Range<u64>) -> u64 {
+        match self.estimates[e].kind {
+            EstimateKind::Pixels { .. } => self.active.as_ref().map_or(0, |a| a.paths(work)),
+            _ => render::block_samples(work, self.samples),
+        }
+    }
+
+    /// An empty state for `shard` of `task`.
+    pub fn empty_state(&self, job: &Job, task: &Task, shard: Shard) -> UnitState {
+        UnitState {
+            job_hash: job.hash.clone(),
+            task: task.index,
+            shard,
+            done: vec![0; self.estimates.len()],
+            tallies: (0..self.estimates.len())
+                .map(|e| vec![Tally::default(); self.tallies(e)])
+                .collect(),
+        }
+    }
+
+    /// True when `state` has the shape of this layout.
+    pub fn fits(&self, state: &UnitState) -> bool {
+        state.done.len() == self.estimates.len()
+            && state.tallies.len() == self.estimates.len()
+            && state
+                .tallies
+                .iter()
+                .enumerate()
+                .all(|(e, t)| t.len() == self.tallies(e))
+            && state
+                .done
+                .iter()
+                .enumerate()
+                .all(|(e, &d)| d <= self.range(e, state.shard).end - self.range(e, state.shard).start)
+    }
+}
+
+/// The sums of a unit so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnitState {
+    pub job_hash: String,
+    pub task: usize,
+    pub shard: Shard,
+    /// Per estimate: blocks (directions, fluxes) or items (images: samples
+    /// × pixels, see [`ActivePixels`]) done, counted from the start of the
+    /// shard's range.
+    pub done: Vec<u64>,
+    /// Per estimate: the running sums, one per value (pixel-major for
+    /// images: the values of pixel 0, then of pixel 1, …).
+    pub tallies: Vec<Vec<Tally>>,
+}
+
+impl UnitState {
+    /// True when every estimate has done its whole range.
+    pub fn is_complete(&self, layout: &Layout) -> bool {
+        self.done
+            .iter()
+            .enumerate()
+            .all(|(e, &d)| d == layout.range(e, self.shard).end - layout.range(e, self.shard).start)
+    }
+
+    /// Samples that gave a non-finite value (counted once per path).
+    pub fn non_finite(&self, layout: &Layout) -> u64 {
+        self.tallies
+            .iter()
+            .zip(&layout.estimates)
+            .map(|(t, est)| t.iter().step_by(est.values.max(1)).map(|x| x.non_finite).sum::<u64>())
+            .sum()
+    }
+
+    /// Adds another shard's sums (same task and layout) to these.
+    pub fn add(&mut self, other: &UnitState) {
+        for (a, b) in self.tallies.iter_mut().zip(&other.tallies) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.merge(y);
+            }
+        }
+    }
+}
+
+/// How a run is steered: when to checkpoint, when to stop, where progress goes.
+pub struct Control<'a> {
+    /// Set (by a signal handler) to stop after the current wave.
+    pub stop: &'a AtomicBool,
+    /// Time between checkpoints (`None`: never).
+    pub checkpoint_every: Option<Duration>,
+    /// Writes a checkpoint of the state.
+    pub checkpoint: &'a (dyn Fn(&UnitState) -> Result<()> + Sync),
+    /// Called with the paths traced, as they are.
+    pub progress: &'a (dyn Fn(u64) + Sync),
+}
+
+impl Control<'_> {
+    /// A control that never stops or checkpoints.
+    pub fn none(progress: &(dyn Fn(u64) + Sync)) -> Control<'_> {
+        static NEVER: AtomicBool = AtomicBool::new(false);
+        Control {
+            stop: &NEVER,
+            checkpoint_every: None,
+            checkpoint: &no_checkpoint,
+            progress,
+        }
+    }
+}
+
+fn no_checkpoint(_: &UnitState) -> Result<()> {
+    Ok(())
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Complete,
+    /// Stopped on request, after writing a checkpoint (`checkpoint` true)
+    /// or before any sample was traced (nothing to keep).
+    Stopped {
+        checkpoint: bool,
+    },
+}
+
+/// The scenes of a task, built on first use.
+struct Scenes<'a> {
+    job: &'a Job,
+    task: &'a Task,
+    shared: Option<Scene>,
+    single: Vec<Option<Scene>>,
+}
+
+impl Scenes<'_> {
+    /// The scene of an estimate's channels: all of them, or one alone.
+    fn of(&mut self, source: Source) -> &Scene {
+        let (job, task) = (self.job, self.task);
+        match source {
+            Source::Shared => self.shared.as_ref().expect("a shared layout has a shared scene"),
+            Source::Wavelength(w) => self.single[w].get_or_insert_with(|| job.scene_for(task, w)),
+        }
+    }
+}
+
+/// The duration adaptive waves aim at: a stop request (SIGTERM) is
+/// honoured within about this long.
+pub const WAVE_SECONDS: f64 = 1.0;
+
+/// The work of a wave of about `paths` paths: items of an image (a wave
+/// may hold less than one sample per pixel), blocks of a direction or flux
+/// (at least one per thread).
+fn wave_size(kind: EstimateKind, paths: u64, layout: &Layout) -> u64 {
+    match kind {
+        EstimateKind::Pixels { .. } => {
+            let active = layout.active.as_ref().map_or(1, |a| a.count().max(1));
+            let items = paths as u128 * layout.pixels as u128 / active as u128;
+            (items.min(u64::MAX as u128) as u64).max(rayon::current_num_threads() as u64)
+        }
+        _ => (paths / BLOCK).max(rayon::current_num_threads() as u64),
+    }
+}
+
+/// Renders what is left of `state` (in the current rayon pool): estimate
+/// after estimate, wave after wave; between waves, writes a checkpoint when
+/// `checkpoint_every` has passed since the last, and on a stop request
+/// writes one and returns [`Outcome::Stopped`].
+pub fn run(
+    job: &Job,
+    task: &Task,
+    layout: &Layout,
+    shared: Option<Scene>,
+    state: &mut UnitState,
+    control: &Control,
+) -> Result<Outcome> {
+    let altitude_km = task.observer_altitude_km;
+    let mut scenes = Scenes {
+        job,
+        task,
+        shared,
+        single: (0..job.wavelengths_nm.len()).map(|_| None).collect(),
+    };
+    let mut last_checkpoint = Instant::now();
+    let mut wave_paths = layout.wave_paths;
+    // The pixels' solid angles, computed when an image's first wave needs them.
+    let mut weights: Option<Vec<f64>> = None;
+    let stop = |state: &UnitState| -> Result<Outcome> {
+        let checkpoint = layout.done_paths(state) > 0;
+        if checkpoint {
+            (control.checkpoint)(state)?;
+        }
+        Ok(Outcome::Stopped { checkpoint })
+    };
+    for e in 0..layout.estimates.len() {
+        let est = layout.estimates[e];
+        let range = layout.range(e, state.shard);
+        while state.done[e] < range.end - range.start {
+            if control.stop.load(Ordering::SeqCst) {
+                return stop(state);
+            }
+            if let (Sensor::Image(camera), None) = (&job.render.sensor, &weights) {
+                match image::pixel_weights_until(camera, control.stop) {
+                    Some(w) => weights = Some(w),
+                    None => return stop(state),
+                }
+            }
+            let start = range.start + state.done[e];
+            let work = start..(start + wave_size(est.kind, wave_paths, layout)).min(range.end);
+            let context = RunContext {
+                job,
+                task,
+                layout,
+                weights: weights.as_deref().unwrap_or(&[]),
+            };
+            let clock = Instant::now();
+            let tallies = &mut state.tallies[e];
+            let scene = scenes.of(est.kind.source());
+            match est.kind {
+                EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } => {
+                    radiance_wave(scene, &context, &est, work.clone(), tallies)
+                }
+                EstimateKind::Flux { up, .. } => {
+                    render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s, out| {
+                        render::flux_sample(scene, altitude_km, up, s, out)
+                    })
+                }
+            }
+            state.done[e] += work.end - work.start;
+            let paths = layout.paths_of(e, &work);
+            (control.progress)(paths);
+            let secs = clock.elapsed().as_secs_f64();
+            if layout.adaptive_waves && paths > 0 && secs > 0.0 {
+                wave_paths = ((paths as f64 / secs * WAVE_SECONDS) as u64).clamp(1 << 12, 1 << 28);
+            }
+            if control
+                .checkpoint_every
+                .is_some_and(|every| last_checkpoint.elapsed() >= every)
+            {
+                (control.checkpoint)(state)?;
+                last_checkpoint = Instant::now();
+            }
+        }
+    }
+    Ok(Outcome::Complete)
+}
+
+/// What a wave needs besides its scene and its work: the job and task, the
+/// layout and the pixels' solid angles (empty for directions).
+struct RunContext<'a> {
+    job: &'a Job,
+    task: &'a Task,
+    layout: &'a Layout,
+    weights: &'a [f64],
+}
+
+/// One wave (`work`) of a direction's sample blocks or of an image's items,
+/// added to `tallies`.
+fn radiance_wave(
+    scene: &Scene,
+    context: &RunContext,
+    est: &Estimate,
+    work: std::ops::Range<u64>,
+    tallies: &mut [Tally],
+) {
+    let RunContext {
+        job,
+        task,
+        layout,
+        weights,
+    } = *context;
+    let (altitude_km, sun) = (task.observer_altitude_km, task.sun.direction);
+    match (&job.render.sensor, est.kind) {
+        (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
+            let dir = directions[direction];
+            let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
+            render::tally_blocks(work, layout.samples, est.keys, tallies, |s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
+            })
+        }
+        (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
+            let sampling = PixelSampling {
+                camera,
+                weights,
+                filter: job.render.pixel_filter,
+                frame: job.render.stokes_frame,
+                sun,
+                samples: layout.samples,
+                seed: est.keys[0],
+                key: est.keys[1],
+            };
+            image::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
+            })
+        }
+        _ => unreachable!("direction estimates belong to directions sensors, pixels to images"),
+    }
+}
+
+/// A task's sums as a `directions` result: radiance rows (wavelength,
+/// albedo, direction) and flux rows (wavelength, albedo).
+pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitState) -> RenderResult {
+    let spec = &job.render;
+    let Sensor::Directions(directions) = &spec.sensor else {
+        return RenderResult::default();
+    };
+    let na = spec.albedos.len();
+    let mut radiance: Vec<Vec<Vec<Tally>>> = vec![vec![Vec::new(); na]; job.wavelengths_nm.len()];
+    let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
+    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+        match est.kind {
+            EstimateKind::Direction { source, .. } => match source {
+                Source::Shared => {
+                    for (w, per_albedo) in radiance.iter_mut().enumerate() {
+                        for (a, list) in per_albedo.iter_mut().enumerate() {
+                            list.push(tallies[w * na + a]);
+                        }
+                    }
+                }
+                Source::Wavelength(w) => {
+                    for (a, list) in radiance[w].iter_mut().enumerate() {
+                        list.push(tallies[a]);
+                    }
+                }
+            },
+            EstimateKind::Flux { source, up } => match source {
+                Source::Shared => {
+                    for (w, f) in flux.iter_mut().enumerate() {
+                        f[up as usize] = tallies[w * na..(w + 1) * na].to_vec();
+                    }
+                }
+                Source::Wavelength(w) => flux[w][up as usize] = tallies.clone(),
+            },
+            EstimateKind::Pixels { .. } => {}
+        }
+    }
+    let mut result = RenderResult::default();
+    let band_scene = (spec.fluxes && job.banded())
+        .then(|| job.spectral_scene(task))
+        .flatten();
+    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+        let k = job.unit_scale(wavelength_nm);
+        let altitude_km = task.observer_altitude_km;
+        let e_dir = spec.fluxes.then(|| {
+            k * match &band_scene {
+                // A band's direct irradiance is its band average.
+                Some(scene) => scene.direct_horizontal(altitude_km, w),
+                None => job.scene_for(task, w).direct_horizontal(altitude_km, 0),
+            }
+        });
+        for (a, &albedo) in spec.albedos.iter().enumerate() {
+            for (direction, tally) in directions.iter().zip(&radiance[w][a]) {
+                result.radiance.push(RadianceRow {
+                    wavelength_nm,
+                    albedo,
+                    direction: *direction,
+                    tally: tally.scaled(k),
+                });
+            }
+            if let Some(e_dir) = e_dir {
+                result.fluxes.push(FluxRow {
+                    wavelength_nm,
+                    albedo,
+                    altitude_km: task.observer_altitude_km,
+                    fluxes: Fluxes::new(e_dir, &flux[w][0][a].scaled(k), &flux[w][1][a].scaled(k)),
+                });
+            }
+        }
+    }
+    result
+}
+
+/// A task's sums as an image: one layer per (wavelength, albedo).
+pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitState) -> SkyImage {
+    let (width, height) = camera.size();
+    let spec = &job.render;
+    let na = spec.albedos.len();
+    let mut layers = Vec::new();
+    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+        let EstimateKind::Pixels { source } = est.kind else {
+            continue;
+        };
+        let (per_value, non_finite) = image::split_values(tallies, est.values);
+        let wavelengths: Vec<usize> = match source {
+            Source::Shared => (0..job.wavelengths_nm.len()).collect(),
+            Source::Wavelength(w) => vec![w],
+        };
+        for (k, &w) in wavelengths.iter().enumerate() {
+            for (a, &albedo) in spec.albedos.iter().enumerate() {
+                layers.push(ImageLayer::from_tallies(
+                    job.wavelengths_nm[w],
+                    albedo,
+                    &per_value[k * na + a],
+                    if k == 0 && a == 0 { non_finite } else { 0 },
+                ));
+            }
+        }
+    }
+    SkyImage { width, height, layers }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(extra: &str) -> Job {
+        let text = format!(
+            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[atmosphere]\naerosol = \"none\"\n[render]\nsamples = 3000\nseed = 5\n{extra}"
+        );
+        Job::parse(&text, "test.toml", std::path::Path::new(".")).unwrap()
+    }
+
+    fn run_all(job: &Job, shard: Shard, control: &Control) -> (Layout, UnitState, Outcome) {
+        let task = &job.tasks[0];
+        let shared = job.spectral_scene(task);
+        let layout = Layout::new(job, task, shared.is_some());
+        let mut state = layout.empty_state(job, task, shard);
+        let outcome = run(job, task, &layout, shared, &mut state, control).unwrap();
+        (layout, state, outcome)
+    }
+
+    #[test]
+    fn shards_add_up_to_the_whole_task() {
+        for extra in [
+            "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0, 90.0]\n",
+            "shared_wavelengths = false\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [30.0]\nazimuth_deg = [180.0]\n",
+            "[sensor]\ntype = \"fisheye\"\nresolution = 6\n",
+        ] {
+            let j = job(extra);
+            let quiet = |_| {};
+            let (layout, whole, _) = run_all(&j, Shard::WHOLE, &Control::none(&quiet));
+            assert!(whole.is_complete(&layout));
+            let mut merged: Option<UnitState> = None;
+            for k in 1..=3 {
+                let (_, part, _) = run_all(&j, Shard::new(k, 3).unwrap(), &Control::none(&quiet));
+                match &mut merged {
+                    None => merged = Some(part),
+                    Some(m) => m.add(&part),
+                }
+            }
+            let merged = merged.unwrap();
+            let mut compared = 0;
+            for (a, b) in whole.tallies.iter().flatten().zip(merged.tallies.iter().flatten()) {
+                assert_eq!(a.samples, b.samples);
+                for k in 0..4 {
+                    let scale = a.sum[k].abs().max(1e-300);
+                    assert!((a.sum[k] - b.sum[k]).abs() <= 1e-12 * scale, "{extra}: {a:?} vs {b:?}");
+                    assert!((a.sum_sq[k] - b.sum_sq[k]).abs() <= 1e-12 * a.sum_sq[k].abs().max(1e-300));
+                }
+                compared += 1;
+            }
+            assert!(compared > 0);
+            assert!(whole.tallies.iter().flatten().any(|t| t.sum[0] > 0.0));
+        }
+    }
+
+    #[test]
+    fn stopping_and_resuming_is_bit_identical() {
+        for extra in [
+            "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
+            "[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
+        ] {
+            let j = job(extra);
+            let quiet = |_| {};
+            let (mut layout, whole, _) = run_all(&j, Shard::WHOLE, &Control::none(&quiet));
+            // Small waves, so that an image stops several times.
+            layout.wave_paths = 1000;
+            layout.adaptive_waves = false;
+            let task = &j.tasks[0];
+            let mut state = layout.empty_state(&j, task, Shard::WHOLE);
+            let stop = AtomicBool::new(false);
+            let saved = std::sync::Mutex::new(Vec::new());
+            let waves = std::sync::atomic::AtomicU64::new(0);
+            let progress = |_| {
+                // Ask to stop after every second wave.
+                if waves.fetch_add(1, Ordering::SeqCst) % 2 == 1 {
+                    stop.store(true, Ordering::SeqCst);
+                }
+            };
+            let checkpoint = |s: &UnitState| {
+                saved.lock().unwrap().push(s.clone());
+                Ok(())
+            };
+            let control = Control {
+                stop: &stop,
+                checkpoint_every: None,
+                checkpoint: &checkpoint,
+                progress: &progress,
+            };
+            let mut stops = 0;
+            loop {
+                let outcome = run(&j, task, &layout, j.spectral_scene(task), &mut state, &control).unwrap();
+                if outcome == Outcome::Complete {
+                    break;
+                }
+                stops += 1;
+                // Resume from the checkpoint, not from the live state.
+                state = saved.lock().unwrap().last().unwrap().clone();
+                stop.store(false, Ordering::SeqCst);
+            }
+            assert!(stops >= 1, "{extra}: never stopped");
+            assert_eq!(state, whole, "{extra}");
+        }
+    }
+
+    #[test]
+    fn non_finite_samples_are_counted_once_per_path_and_never_summed() {
+        let j = job("[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0]\nazimuth_deg = [0.0]\n");
+        let task = &j.tasks[0];
+        let layout = Layout::new(&j, task, true);
+        let mut state = layout.empty_state(&j, task, Shard::WHOLE);
+        let nan = crate::polarization::stokes::Stokes::new(f64::NAN, 0.0, 0.0, 0.0);
+        let one = crate::polarization::stokes::Stokes::new(1.0, 0.5, 0.0, 0.0);
+        // One path: every value of the first estimate non-finite.
+        for t in state.tallies[0].iter_mut() {
+            t.add(&nan);
+            t.add(&one);
+        }
+        assert_eq!(state.non_finite(&layout), 1);
+        let t = state.tallies[0][0];
+        assert_eq!((t.sum[0], t.sum[1], t.samples, t.non_finite), (1.0, 0.5, 2, 1));
+        assert!(t.mean().iter().chain(&t.standard_error()).all(|x| x.is_finite()));
+    }
+
+    #[test]
+    fn checkpoints_follow_the_interval() {
+        let j = job("[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0]\nazimuth_deg = [0.0]\n");
+        let count = std::sync::atomic::AtomicU64::new(0);
+        let checkpoint = |_: &UnitState| {
+            count.fetch_add(1, Ordering::SeqCst);
+            Ok(())
+        };
+        let stop = AtomicBool::new(false);
+        let waves = std::sync::atomic::AtomicU64::new(0);
+        let progress = |_| {
+            waves.fetch_add(1, Ordering::SeqCst);
+        };
+        let control = Control {
+            stop: &stop,
+            checkpoint_every: Some(Duration::ZERO),
+            checkpoint: &checkpoint,
+            progress: &progress,
+        };
+        let (layout, state, outcome) = run_all(&j, Shard::WHOLE, &control);
+        assert_eq!(outcome, Outcome::Complete);
+        // One checkpoint after every wave of every estimate.
+        assert!(waves.load(Ordering::SeqCst) >= layout.estimates.len() as u64);
+        assert_eq!(count.load(Ordering::SeqCst), waves.load(Ordering::SeqCst));
+        assert!(state.is_complete(&layout));
+    }
+}

@@ -1,0 +1,3 @@
+//! Random numbers: the keyed, counter-based streams every sample draws from.
+
+pub mod sampler;

@@ -1,0 +1,3 @@
+//! Sensors: which directions a render looks along, and the Stokes frame each is reported in.
+
+pub mod camera;

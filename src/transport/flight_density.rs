@@ -1,0 +1,292 @@
+//! The density from which sun-aware connections draw one point along a
+//! whole flight (`spectral`).
+//!
+//! It follows up to two channels (one for a single wavelength). Each
+//! followed channel's density is a defensive mixture:
+//! - with share α, q_sun ∝ c̄·e^(−τ)·e^(−τ̃_sun);
+//! - with share 1 − α, q_flight ∝ c̄·e^(−τ).
+//!
+//! Here τ is the channel's optical depth along the flight and τ̃_sun its
+//! approximate depth toward the sun (`sun_depth`). Both are piecewise
+//! exponential over pieces of the flight: runs of up to a given number of
+//! layer segments (one: exact per segment) and [`PIECE_DEPTH`] optical
+//! depth of the last followed channel. Inside a piece, both exponents are linear in the distance from
+//! their exact values at its ends, and c̄ is the piece's length-weighted
+//! mean σ_s·P11 at the sun's centre.
+//!
+//! The point's pdf is that of the draw itself: a channel, a part, a piece
+//! by its integral, then the exact exponential inside it. Whatever the
+//! pieces' accuracy, a contribution divided by it is unbiased wherever
+//! σ_s > 0. The q_flight share bounds every weight by 1/(1 − α) times that
+//! of sampling the flight's own density.
+
+use glam::DVec3;
+
+use crate::sampling::sampler::Sampler;
+use crate::transport::sun_depth::SunDepth;
+use crate::transport::tracking::{Ray, Segment};
+
+/// The most optical depth of the last followed channel in one piece of
+/// more than one segment.
+pub const PIECE_DEPTH: f64 = 0.3;
+
+/// The most channels a density follows.
+pub const MAX_FOLLOWED: usize = 2;
+
+/// One segment's optics for each followed channel: its optical depth and
+/// its σ_s·P11 at the sun's centre.
+pub type SegmentOptics = [(f64, f64); MAX_FOLLOWED];
+
+/// A run of a flight's segments that is one exponential piece.
+#[derive(Debug, Default, Clone, Copy)]
+struct Piece {
+    /// Its segments, `first..end`, and its span along the flight.
+    first: usize,
+    end: usize,
+    t0: f64,
+    t1: f64,
+    /// The layer of its last segment (its end lies on a level of it).
+    end_layer: usize,
+}
+
+/// One piece for one followed channel.
+#[derive(Debug, Default, Clone, Copy)]
+struct Terms {
+    /// Optical depth along the flight at the piece's start, and over it.
+    tau0: f64,
+    tau: f64,
+    /// Approximate depth toward the sun at the piece's ends.
+    sun0: f64,
+    sun1: f64,
+    /// Mean σ_s·P11 at the sun's centre.
+    c: f64,
+    /// ∫ of the unnormalised sun-following and flight densities.
+    sun_integral: f64,
+    flight_integral: f64,
+}
+
+/// A drawn point: its distance along the flight, the segment holding it,
+/// and the density it was drawn with, per unit length.
+#[derive(Debug, Clone, Copy)]
+pub struct Point {
+    pub t: f64,
+    pub segment: usize,
+    pub pdf: f64,
+}
+
+/// The density along one flight; its buffers are reused from flight to
+/// flight.
+#[derive(Debug, Default, Clone)]
+pub struct FlightDensity {
+    pieces: Vec<Piece>,
+    terms: Vec<Terms>,
+    /// Per followed channel: the totals of both parts, and whether it can
+    /// be drawn from.
+    totals: [(f64, f64, bool); MAX_FOLLOWED],
+    followed: usize,
+}
+
+impl FlightDensity {
+    /// Builds the density of the flight along `ray` over its `segments`
+    /// for `followed` channels, in pieces of at most `piece_segments`
+    /// segments. `optics(i, segment)` is called once per segment, in
+    /// order. `depth` holds one profile per followed channel. Returns
+    /// whether any channel can be drawn from.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        &mut self,
+        ray: &Ray,
+        segments: &[Segment],
+        followed: usize,
+        piece_segments: usize,
+        mut optics: impl FnMut(usize, &Segment) -> SegmentOptics,
+        depth: &SunDepth,
+        sun: DVec3,
+    ) -> bool {
+        debug_assert!((1..=MAX_FOLLOWED).contains(&followed) && depth.profiles() == followed);
+        self.followed = followed;
+        self.pieces.clear();
+        self.terms.clear();
+        let nk = followed;
+        let Some(first) = segments.first() else {
+            return false;
+        };
+        // Pass 1: the pieces, with their optics.
+        let mut piece = Piece {
+            first: 0,
+            t0: first.t0,
+            ..Piece::default()
+        };
+        // Per followed channel: Σ c·length and Σ τ of the open piece, and
+        // τ along the flight at its start.
+        let mut acc = [(0.0f64, 0.0f64); MAX_FOLLOWED];
+        let mut tau0 = [0.0f64; MAX_FOLLOWED];
+        let last = nk - 1;
+        for (i, seg) in segments.iter().enumerate() {
+            let len = seg.t1 - seg.t0;
+            let o = optics(i, seg);
+            if i > piece.first && (i - piece.first >= piece_segments || acc[last].1 + o[last].0 > PIECE_DEPTH) {
+                self.close(piece, i, segments[i - 1], &acc, &mut tau0);
+                piece = Piece {
+                    first: i,
+                    t0: seg.t0,
+                    ..Piece::default()
+                };
+                acc = [(0.0, 0.0); MAX_FOLLOWED];
+            }
+            for k in 0..nk {
+                acc[k].0 += o[k].1 * len;
+                acc[k].1 += o[k].0;
+            }
+        }
+        self.close(piece, segments.len(), segments[segments.len() - 1], &acc, &mut tau0);
+        // Pass 2: depths toward the sun at the pieces' ends.
+        let mut v = [0.0f64; MAX_FOLLOWED + 1];
+        depth.at_in_layer_into(ray.origin + first.t0 * ray.dir, sun, first.layer, &mut v[..=nk]);
+        for k in 0..nk {
+            self.terms[k].sun0 = SunDepth::profile_depth(&v[..=nk], k);
+        }
+        let np = self.pieces.len();
+        for j in 0..np {
+            let p = self.pieces[j];
+            depth.at_end_in_layer_into(ray.origin + p.t1 * ray.dir, sun, p.end_layer, &mut v[..=nk]);
+            for k in 0..nk {
+                let sun1 = SunDepth::profile_depth(&v[..=nk], k);
+                self.terms[j * nk + k].sun1 = sun1;
+                if j + 1 < np {
+                    self.terms[(j + 1) * nk + k].sun0 = sun1;
+                }
+            }
+        }
+        // Pass 3: the integrals, one exponential per piece boundary (both
+        // exponents are continuous along the flight), the sun's shifted by
+        // its smallest exponent.
+        let integral = |c: f64, len: f64, w0: f64, w1: f64, de: f64| {
+            c * len
+                * if de.abs() < 1e-7 {
+                    0.5 * (w0 + w1)
+                } else {
+                    (w0 - w1) / de
+                }
+        };
+        let mut any = false;
+        for k in 0..nk {
+            let at = |j: usize| self.terms[j * nk + k];
+            let e_min = (0..np)
+                .map(|j| {
+                    let t = at(j);
+                    (t.tau0 + t.sun0).min(t.tau0 + t.tau + t.sun1)
+                })
+                .fold(f64::INFINITY, f64::min);
+            let (mut sun_total, mut flight_total) = (0.0, 0.0);
+            let mut w_sun = (-(at(0).tau0 + at(0).sun0 - e_min)).exp();
+            let mut w_flight = (-at(0).tau0).exp();
+            for j in 0..np {
+                let len = self.pieces[j].t1 - self.pieces[j].t0;
+                let t = &mut self.terms[j * nk + k];
+                let w_sun1 = (-(t.tau0 + t.tau + t.sun1 - e_min)).exp();
+                let w_flight1 = (-(t.tau0 + t.tau)).exp();
+                t.sun_integral = integral(t.c, len, w_sun, w_sun1, t.tau + t.sun1 - t.sun0);
+                t.flight_integral = integral(t.c, len, w_flight, w_flight1, t.tau);
+                (w_sun, w_flight) = (w_sun1, w_flight1);
+                sun_total += t.sun_integral;
+                flight_total += t.flight_integral;
+            }
+            let usable = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
+            self.totals[k] = (sun_total, flight_total, usable);
+            any |= usable;
+        }
+        any
+    }
+
+    /// Closes `piece` before segment `end` (`last` its last segment) with
+    /// its sums `acc`, and moves `tau0` on past it.
+    fn close(
+        &mut self,
+        mut piece: Piece,
+        end: usize,
+        last: Segment,
+        acc: &[(f64, f64); MAX_FOLLOWED],
+        tau0: &mut [f64; MAX_FOLLOWED],
+    ) {
+        piece.end = end;
+        piece.t1 = last.t1;
+        piece.end_layer = last.layer;
+        let len = piece.t1 - piece.t0;
+        for k in 0..self.followed {
+            self.terms.push(Terms {
+                tau0: tau0[k],
+                tau: acc[k].1,
+                c: if len > 0.0 { acc[k].0 / len } else { 0.0 },
+                ..Terms::default()
+            });
+            tau0[k] += acc[k].1;
+        }
+        self.pieces.push(piece);
+    }
+
+    /// Draws a point along the flight of `segments` (those of `build`),
+    /// with share `alpha` of the sun-following part; `None` when no
+    /// channel can be drawn from or the density vanishes there.
+    pub fn sample(&self, segments: &[Segment], alpha: f64, sampler: &mut Sampler) -> Option<Point> {
+        let nk = self.followed;
+        let mut usable = [0usize; MAX_FOLLOWED];
+        let mut n_usable = 0;
+        for k in (0..nk).filter(|&k| self.totals[k].2) {
+            usable[n_usable] = k;
+            n_usable += 1;
+        }
+        let usable = &usable[..n_usable];
+        if usable.is_empty() {
+            return None;
+        }
+        let np = self.pieces.len();
+        let k = usable[((sampler.next_f64() * usable.len() as f64) as usize).min(usable.len() - 1)];
+        let from_sun = alpha == 1.0 || sampler.next_f64() < alpha;
+        let weight_of = |t: &Terms| if from_sun { t.sun_integral } else { t.flight_integral };
+        let mut target = sampler.next_f64() * if from_sun { self.totals[k].0 } else { self.totals[k].1 };
+        let j = (0..np)
+            .find(|&j| {
+                let w = weight_of(&self.terms[j * nk + k]);
+                target -= w;
+                target < 0.0 && w > 0.0
+            })
+            .unwrap_or_else(|| {
+                (0..np)
+                    .rev()
+                    .find(|&j| weight_of(&self.terms[j * nk + k]) > 0.0)
+                    .unwrap_or(0)
+            });
+        let tk = self.terms[j * nk + k];
+        let de = if from_sun { tk.tau + tk.sun1 - tk.sun0 } else { tk.tau };
+        let v = sampler.next_f64();
+        let u = if de.abs() < 1e-9 {
+            v
+        } else {
+            -(-v * (-(-de).exp_m1())).ln_1p() / de
+        };
+        let p = self.pieces[j];
+        let len = p.t1 - p.t0;
+        let t = p.t0 + u * len;
+        let segment = (p.first..p.end).find(|&i| t <= segments[i].t1).unwrap_or(p.end - 1);
+        // The density of this draw, per unit length: for each followed
+        // channel and part, the chance of the piece (its integral over
+        // the total) times the density of u inside it.
+        let inside = |de: f64| {
+            if de.abs() < 1e-9 {
+                1.0
+            } else {
+                de * (-de * u).exp() / -(-de).exp_m1()
+            }
+        };
+        let mut pdf = 0.0;
+        for &k in usable {
+            let t = &self.terms[j * nk + k];
+            let (sun_total, flight_total, _) = self.totals[k];
+            pdf += alpha * t.sun_integral / sun_total * inside(t.tau + t.sun1 - t.sun0)
+                + (1.0 - alpha) * t.flight_integral / flight_total * inside(t.tau);
+        }
+        pdf /= usable.len() as f64 * len;
+        (pdf > 0.0 && pdf.is_finite()).then_some(Point { t, segment, pdf })
+    }
+}

@@ -1,0 +1,9 @@
+//! Light transport: the medium a path sees, free flights through it, the polarised path tracer with its sun connections, and transmittance.
+
+pub mod flight_density;
+pub mod integrator;
+pub mod medium;
+pub mod spectral;
+pub mod sun_depth;
+pub mod tracking;
+pub mod transmittance;
