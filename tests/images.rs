@@ -2,11 +2,13 @@
 
 mod common;
 
+use atmosim::film::directions::render_directions;
 use atmosim::film::image::{PixelSampling, pixel_weights, render_layer};
 use atmosim::job::Sensor;
 use atmosim::polarization::stokes_frame::StokesFrame;
-use atmosim::run::render::{Direction, render_directions};
+use atmosim::sampling::stream::Render;
 use atmosim::sensor::camera::{Camera, PixelFilter};
+use atmosim::sensor::direction::Direction;
 use common::{Comparison, job};
 
 const SKY: &str = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
@@ -29,7 +31,7 @@ fn sampling<'a>(
         sun: job.tasks[0].sun.direction,
         samples,
         seed,
-        key: 0,
+        render: Render::channel(0, 0),
     }
 }
 
@@ -64,7 +66,7 @@ fn fisheye_pixels_agree_with_directions_runs() {
                 azimuth_deg: v.y.atan2(v.x).to_degrees(),
             };
             // Independent streams (another seed).
-            let reference = &render_directions(&scene, 0.0, &[d], 4000, 99, 0)[0];
+            let reference = &render_directions(&scene, 0.0, &[d], 4000, 99, Render::channel(0, 0))[0];
             let pixel = &tallies[jj * 16 + i];
             for k in 0..3 {
                 cmp.add(

@@ -32,7 +32,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use atmosim::compat::stats::two_sided_tail;
-use atmosim::run::render::{Direction, render_directions_all};
+use atmosim::film::directions::render_directions_all;
+use atmosim::sampling::stream::Render;
+use atmosim::sensor::direction::Direction;
 use common::{Comparison, job, layers_toml, samples, table};
 
 /// The limits: on |ΔI/I|, and on π|ΔQ| and π|ΔU| (Natraj's
@@ -82,7 +84,7 @@ fn done_rows(path: &PathBuf, n: u64) -> Vec<Vec<f64>> {
 
 /// A CSV row: the place (τ, albedo, μ0, level, view zenith, azimuth), the
 /// paths, then I, Q, U each as estimate, standard error and reference.
-fn sweep_row(place: &[f64], n: u64, tally: &atmosim::run::render::Tally, reference: &[f64]) -> Vec<f64> {
+fn sweep_row(place: &[f64], n: u64, tally: &atmosim::film::tally::Tally, reference: &[f64]) -> Vec<f64> {
     let (m, se) = (tally.mean(), tally.standard_error());
     let mut row = place.to_vec();
     row.push(n as f64);
@@ -135,14 +137,14 @@ fn render_slab(
     n: u64,
     seed: u64,
     sun_sampling: &str,
-) -> Vec<Vec<atmosim::run::render::Tally>> {
+) -> Vec<Vec<atmosim::film::tally::Tally>> {
     let text = format!(
         "{}[ground]\nalbedo = {albedos:?}\n[sun]\nzenith_deg = {:?}\n[observer]\naltitude_km = {level:?}\n[render]\nseed = {seed}\nsun_sampling = \"{sun_sampling}\"\n",
         layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.0),
         mu0.acos().to_degrees()
     );
     let job = job(&text);
-    render_directions_all(&job.scene(0), level, dirs, n, job.render.seed, 0).swap_remove(0)
+    render_directions_all(&job.scene(0), level, dirs, n, job.render.seed, Render::channel(0, 0)).swap_remove(0)
 }
 
 #[test]

@@ -35,10 +35,10 @@ use std::time::{Duration, Instant};
 
 use atmosim::Error;
 use atmosim::compat::uvspec::{IGNORED_KEYWORDS, NUMERICAL_KEYWORDS, UvspecInput};
+use atmosim::film::tally::Tally;
 use atmosim::io::exr::{Channel, read_exr_bytes, write_exr};
 use atmosim::job::{Job, fnv1a};
 use atmosim::run::checkpoint::{StateFile, shard_path, write_state};
-use atmosim::run::render::Tally;
 use atmosim::run::shard::Shard;
 use atmosim::run::work_unit::Layout;
 use proptest::prelude::*;

@@ -7,8 +7,10 @@
 
 mod common;
 
+use atmosim::film::directions::render_directions_all;
+use atmosim::film::tally::Tally;
 use atmosim::physics::solar::SolarSpectrum;
-use atmosim::run::render::{Tally, render_directions_all};
+use atmosim::sampling::stream::Render;
 use common::{Comparison, directions, job};
 
 /// Six-point Gauss–Legendre nodes and weights on [−1, 1].
@@ -81,7 +83,7 @@ fn band_channels_estimate_the_band_averaged_radiance() {
         let banded = job(&text);
         let scene = banded.spectral_scene(&banded.tasks[0]).expect("bands use shared paths");
         let h = banded.observer_altitude_km;
-        let shared = render_directions_all(&scene, h, &dirs, samples, 3, 0);
+        let shared = render_directions_all(&scene, h, &dirs, samples, 3, Render::channel(0, 0));
         for (w, &(centre, width)) in channels.iter().enumerate() {
             // The reference: quadrature over single-wavelength renders.
             let nodes: Vec<(f64, f64)> = if width > 0.0 {
@@ -98,7 +100,10 @@ fn band_channels_estimate_the_band_averaged_radiance() {
                  [observer]\naltitude_km = 0.2\n[ground]\nalbedo = [0.0, 0.4]\n"
             ));
             let renders: Vec<_> = (0..nodes.len())
-                .map(|k| render_directions_all(&mono.scene(k), h, &dirs, samples, 100 + k as u64, 0).swap_remove(0))
+                .map(|k| {
+                    render_directions_all(&mono.scene(k), h, &dirs, samples, 100 + k as u64, Render::channel(0, 0))
+                        .swap_remove(0)
+                })
                 .collect();
             for (a, per_albedo) in shared[w].iter().enumerate() {
                 for (d, x) in per_albedo.iter().enumerate() {
@@ -139,8 +144,15 @@ fn a_wide_band_differs_from_its_centre_wavelength() {
     let centre = job(&format!("{base}[spectrum]\nwavelengths_nm = [380.0]\n"));
     let dirs = &directions(&DIRECTIONS)[..1];
     let h = band.observer_altitude_km;
-    let b = render_directions_all(&band.spectral_scene(&band.tasks[0]).unwrap(), h, dirs, 100_000, 1, 0);
-    let c = render_directions_all(&centre.scene(0), h, dirs, 100_000, 2, 0);
+    let b = render_directions_all(
+        &band.spectral_scene(&band.tasks[0]).unwrap(),
+        h,
+        dirs,
+        100_000,
+        1,
+        Render::channel(0, 0),
+    );
+    let c = render_directions_all(&centre.scene(0), h, dirs, 100_000, 2, Render::channel(0, 0));
     let (x, y) = (&b[0][0][0], &c[0][0][0]);
     let z = (x.mean()[0] - y.mean()[0]) / x.standard_error()[0].hypot(y.standard_error()[0]);
     assert!(z.abs() > 5.0, "band {} vs centre {}: z = {z}", x.mean()[0], y.mean()[0]);
@@ -189,7 +201,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
         &dirs,
         samples,
         5,
-        0,
+        Render::channel(0, 0),
     );
     let nodes: Vec<f64> = GAUSS_6.iter().map(|&(x, _)| centre + 0.5 * width * x).collect();
     let (lo, hi) = (centre - 0.5 * width, centre + 0.5 * width);
@@ -201,7 +213,17 @@ fn absolute_bands_average_the_source_weighted_radiance() {
         let list = nodes.iter().map(|n| format!("{n}")).collect::<Vec<_>>().join(", ");
         let single = job(&format!("{base}[spectrum]\nwavelengths_nm = [{list}]\n"));
         let renders: Vec<_> = (0..nodes.len())
-            .map(|k| render_directions_all(&single.scene(k), h, &dirs, samples, 200 + k as u64, 0).swap_remove(0))
+            .map(|k| {
+                render_directions_all(
+                    &single.scene(k),
+                    h,
+                    &dirs,
+                    samples,
+                    200 + k as u64,
+                    Render::channel(0, 0),
+                )
+                .swap_remove(0)
+            })
             .collect();
         for (a, per_albedo) in shared[w].iter().enumerate() {
             for (d, x) in per_albedo.iter().enumerate() {
@@ -234,7 +256,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
 }
 
 /// The fluxes rows of `job`'s first task, `[channel][albedo]`.
-fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::run::render::Fluxes>> {
+fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::film::fluxes::Fluxes>> {
     let result = atmosim::run::render::render_task(job, &job.tasks[0], &|_| {});
     let na = job.render.albedos.len();
     result
@@ -287,7 +309,7 @@ fn band_fluxes_average_the_fluxes_over_the_band() {
             ];
             for (w, (name, parts)) in channels.iter().enumerate() {
                 let got = shared[w][a];
-                let sum = |f: &dyn Fn(&atmosim::run::render::Fluxes) -> f64| {
+                let sum = |f: &dyn Fn(&atmosim::film::fluxes::Fluxes) -> f64| {
                     parts.iter().map(|&(k, c)| c * f(&reference[k][a])).sum::<f64>()
                 };
                 let e_dir = sum(&|f| f.e_dir);
@@ -296,7 +318,7 @@ fn band_fluxes_average_the_fluxes_over_the_band() {
                     "{units} {name} albedo {albedo}: E_dir {} vs quadrature {e_dir}",
                     got.e_dir
                 );
-                let var = |f: &dyn Fn(&atmosim::run::render::Fluxes) -> f64| {
+                let var = |f: &dyn Fn(&atmosim::film::fluxes::Fluxes) -> f64| {
                     parts
                         .iter()
                         .map(|&(k, c)| (c * f(&reference[k][a])).powi(2))

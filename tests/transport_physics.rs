@@ -5,7 +5,10 @@
 
 mod common;
 
-use atmosim::run::render::{Direction, render_directions, render_fluxes};
+use atmosim::film::directions::render_directions;
+use atmosim::film::fluxes::render_fluxes;
+use atmosim::sampling::stream::Render;
+use atmosim::sensor::direction::Direction;
 use common::{Comparison, directions, job, layers_toml};
 
 #[test]
@@ -18,7 +21,7 @@ fn conservative_slab_over_white_ground_reflects_all_incident_flux() {
             layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.03)
         );
         let j = job(&text);
-        let f = render_fluxes(&j.scene(0), 1.0, 100_000, 1, 0);
+        let f = render_fluxes(&j.scene(0), 1.0, 100_000, 1, Render::channel(0, 0));
         let mu0 = sza.to_radians().cos();
         assert!(
             (f.e_up - mu0).abs() < 4.0 * f.e_up_se,
@@ -42,8 +45,8 @@ fn direct_and_diffuse_fluxes_at_the_ground_add_up_for_a_conservative_slab() {
     let top = job(&format!(
         "{base}[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n"
     ));
-    let fb = render_fluxes(&bottom.scene(0), 0.0, 100_000, 1, 0);
-    let ft = render_fluxes(&top.scene(0), 1.0, 100_000, 1, 0);
+    let fb = render_fluxes(&bottom.scene(0), 0.0, 100_000, 1, Render::channel(0, 0));
+    let ft = render_fluxes(&top.scene(0), 1.0, 100_000, 1, Render::channel(0, 0));
     let mu0 = sza.to_radians().cos();
     assert!((fb.e_dir - mu0 * (-tau / mu0).exp()).abs() < 1e-12);
     let total = fb.e_dir + fb.e_down + ft.e_up;
@@ -62,8 +65,8 @@ fn huge_radius_spherical_shells_agree_with_plane_parallel() {
     // 400,000 paths: at 100,000 these streams drew Q at (75°, 120°) 4σ
     // low (max |z| 3.66), over six other seed pairs max |z| was 1.5–2.5,
     // and on the same streams at 400,000 paths 2.24.
-    let a = render_directions(&pp.scene(0), 1.0, &dirs, 400_000, 1, 0);
-    let b = render_directions(&sph.scene(0), 1.0, &dirs, 400_000, 2, 0);
+    let a = render_directions(&pp.scene(0), 1.0, &dirs, 400_000, 1, Render::channel(0, 0));
+    let b = render_directions(&sph.scene(0), 1.0, &dirs, 400_000, 2, Render::channel(0, 0));
     let mut cmp = Comparison::default();
     cmp.add_tallies("plane-parallel vs R = 1e6 km", &a, &b);
     cmp.assert_no_outlier("plane-parallel limit");
@@ -86,7 +89,7 @@ fn output_is_bit_identical_for_any_thread_count() {
     ];
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| render_directions(&j.scene(0), 0.0, &dirs, 5_000, 42, 0))
+        pool.install(|| render_directions(&j.scene(0), 0.0, &dirs, 5_000, 42, Render::channel(0, 0)))
     };
     let one = run(1);
     assert_eq!(one, run(2));
@@ -110,7 +113,7 @@ fn twilight_works_and_darkens_as_the_sun_sinks() {
                 azimuth_deg: 0.0,
             },
         ];
-        render_directions(&j.scene(0), alt, &d, 20_000, 1, 0)
+        render_directions(&j.scene(0), alt, &d, 20_000, 1, Render::channel(0, 0))
     };
     for alt in [0.0, 10.0] {
         let shallow = zenith_sky(-2.0, alt);
@@ -128,7 +131,7 @@ fn looking_at_the_sun_through_an_empty_atmosphere_sees_nothing() {
     let text = "[planet]\ngeometry = \"plane_parallel\"\n[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 1.0\n[sun]\nzenith_deg = 30.0\n\
                 [sensor]\ndirections = [[30.0, 0.0]]\n";
     let j = job(text);
-    let t = render_directions(&j.scene(0), 0.0, j.render.directions(), 1_000, 1, 0);
+    let t = render_directions(&j.scene(0), 0.0, j.render.directions(), 1_000, 1, Render::channel(0, 0));
     assert_eq!(t[0].mean(), [0.0; 4]);
 }
 
@@ -150,7 +153,7 @@ fn sun_aware_and_collision_sun_connections_agree_for_a_low_sun() {
                 (95.0, 180.0),
                 (150.0, 45.0),
             ]);
-            render_directions(&j.scene(0), 1.0, &dirs, 20_000, seed, 0)
+            render_directions(&j.scene(0), 1.0, &dirs, 20_000, seed, Render::channel(0, 0))
         };
         let (a, b) = (run("collision", 1), run("sun_aware", 2));
         let mut cmp = Comparison::default();
@@ -173,14 +176,21 @@ fn all_albedos_from_one_render_equal_separate_renders() {
         let all = job(&format!(
             "{base}[ground]\nalbedo = [0.0, 0.3, 0.6, 1.0]\n[observer]\naltitude_km = 0.5\n"
         ));
-        let together =
-            atmosim::run::render::render_directions_all(&all.scene(0), 0.5, &dirs, 20_000, 1, 0).swap_remove(0);
+        let together = atmosim::film::directions::render_directions_all(
+            &all.scene(0),
+            0.5,
+            &dirs,
+            20_000,
+            1,
+            Render::channel(0, 0),
+        )
+        .swap_remove(0);
         let mut cmp = Comparison::default();
         for (i, a) in albedos.iter().enumerate() {
             let one = job(&format!(
                 "{base}[ground]\nalbedo = {a:?}\n[observer]\naltitude_km = 0.5\n"
             ));
-            let alone = render_directions(&one.scene(0), 0.5, &dirs, 20_000, 100 + i as u64, 0);
+            let alone = render_directions(&one.scene(0), 0.5, &dirs, 20_000, 100 + i as u64, Render::channel(0, 0));
             cmp.add_tallies(&format!("albedo {a}"), &together[i], &alone);
         }
         cmp.assert_no_outlier("albedo polynomial vs separate renders");
@@ -256,11 +266,19 @@ fn shared_paths_against_single_channels(base: &str, wavelengths: &[f64], band_wi
     let analog = job(&analog);
     let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (75.0, 10.0), (88.0, 180.0), (130.0, 60.0)]);
     let h = j.observer_altitude_km;
-    let shared = atmosim::run::render::render_directions_all(&spectral, h, &dirs, samples, 1, 0);
+    let shared =
+        atmosim::film::directions::render_directions_all(&spectral, h, &dirs, samples, 1, Render::channel(0, 0));
     let mut cmp = Comparison::default();
     for (w, lambda) in wavelengths.iter().enumerate() {
-        let alone = atmosim::run::render::render_directions_all(&analog.scene(w), h, &dirs, samples, 50 + w as u64, 0)
-            .swap_remove(0);
+        let alone = atmosim::film::directions::render_directions_all(
+            &analog.scene(w),
+            h,
+            &dirs,
+            samples,
+            50 + w as u64,
+            Render::channel(0, 0),
+        )
+        .swap_remove(0);
         for a in 0..2 {
             cmp.add_tallies(&format!("{lambda} nm albedo {a}"), &shared[w][a], &alone[a]);
         }
@@ -312,7 +330,7 @@ fn looking_down_from_the_ground_sees_the_lambertian_ground() {
                  [sun]\nelevation_deg = 40.0\n[ground]\nalbedo = 0.4\n",
     );
     let scene = j.scene(0);
-    let f = render_fluxes(&scene, 0.0, 100_000, 1, 0);
+    let f = render_fluxes(&scene, 0.0, 100_000, 1, Render::channel(0, 0));
     let expect = 0.4 * (f.e_dir + f.e_down) / std::f64::consts::PI;
     let expect_se = 0.4 * f.e_down_se / std::f64::consts::PI;
     let dirs = [
@@ -325,7 +343,7 @@ fn looking_down_from_the_ground_sees_the_lambertian_ground() {
             azimuth_deg: 70.0,
         },
     ];
-    for t in render_directions(&scene, 0.0, &dirs, 50_000, 2, 0) {
+    for t in render_directions(&scene, 0.0, &dirs, 50_000, 2, Render::channel(0, 0)) {
         let (m, se) = (t.mean()[0], t.standard_error()[0]);
         assert!(
             (m - expect).abs() < 4.0 * (se * se + expect_se * expect_se).sqrt(),
@@ -363,7 +381,7 @@ fn first_vertex_splitting_is_unbiased_and_cuts_polarisation_noise() {
                 let j = job(&format!(
                     "{base}[ground]\nalbedo = {albedo:?}\n[render]\nfirst_vertex_splitting = {splitting}\n"
                 ));
-                render_directions(&j.scene(0), altitude, &dirs, 20_000, seed, 0)
+                render_directions(&j.scene(0), altitude, &dirs, 20_000, seed, Render::channel(0, 0))
             };
             let (split, analog) = (run(true, 11), run(false, 12));
             for (d, (x, y)) in split.iter().zip(&analog).enumerate() {
@@ -413,7 +431,7 @@ fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
             j.render.directions(),
             samples,
             seed,
-            0,
+            Render::channel(0, 0),
         )
     };
     let forced = run("", 30_000, 21);

@@ -16,7 +16,7 @@ mod common;
 
 use atmosim::job::Job;
 use atmosim::polarization::phase::PhaseFunction;
-use atmosim::run::render::Direction;
+use atmosim::sensor::direction::Direction;
 use atmosim::transport::medium::{Medium, MediumModel};
 use atmosim::transport::tracking::{self, Ray, WalkEnd};
 use common::{Comparison, directions, job, render};

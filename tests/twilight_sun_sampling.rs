@@ -22,7 +22,7 @@ mod common;
 
 use std::time::Instant;
 
-use atmosim::run::render::Tally;
+use atmosim::film::tally::Tally;
 use atmosim::transport::integrator::SunSampling;
 use common::{Comparison, directions, job, render, samples};
 

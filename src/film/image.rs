@@ -12,10 +12,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
+use crate::film::tally::Tally;
 use crate::polarization::stokes::Stokes;
 use crate::polarization::stokes_frame::{StokesFrame, carry};
-use crate::run::render::Tally;
 use crate::sampling::sampler::Sampler;
+use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::camera::{Camera, PixelFilter};
 use crate::transport::spectral::Scene;
 
@@ -152,7 +153,7 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
 
 /// How pixels are sampled: the camera, the pixels' mean dΩ/dA, the filter,
 /// the Stokes frame (and the sun's direction, which the sun–view frame
-/// needs), samples per pixel and the stream keys (seed, key).
+/// needs), samples per pixel and the seed and render that key the pixels' streams.
 #[derive(Clone, Copy)]
 pub struct PixelSampling<'a> {
     pub camera: &'a Camera,
@@ -162,7 +163,7 @@ pub struct PixelSampling<'a> {
     pub sun: glam::DVec3,
     pub samples: u64,
     pub seed: u64,
-    pub key: u64,
+    pub render: Render,
 }
 
 /// Renders every pixel: `radiance(direction, e1, sampler, values)` writes a sample's
@@ -290,7 +291,7 @@ fn render_pixel(
     let stratified = samples / (m * m) * (m * m);
     let mut values = vec![Stokes::zero(); tallies.len()];
     for s in range {
-        let mut sampler = Sampler::new(&[sampling.seed, sampling.key, index as u64, s]);
+        let mut sampler = StreamKey::new(sampling.seed, sampling.render, Estimate::Pixel(index)).sampler(s);
         let (x, y) = match sampling.filter {
             PixelFilter::Center => (i as f64 + 0.5, j as f64 + 0.5),
             PixelFilter::Box => {

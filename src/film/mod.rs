@@ -1,3 +1,6 @@
 //! Where samples are summed: per direction or pixel, the Stokes sums and their estimates.
 
+pub mod directions;
+pub mod fluxes;
 pub mod image;
+pub mod tally;

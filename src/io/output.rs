@@ -6,8 +6,10 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::film::fluxes::Fluxes;
+use crate::film::tally::Tally;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
-use crate::run::render::{Direction, Fluxes, Tally};
+use crate::sensor::direction::Direction;
 use crate::transport::transmittance::{Grid, Table as TransmittanceTable};
 
 /// Header of the radiance CSV of a `directions` sensor.

@@ -10,8 +10,8 @@ use super::raw::{
 };
 use crate::error::Result;
 use crate::polarization::stokes_frame::StokesFrame;
-use crate::run::render::Direction;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
+use crate::sensor::direction::Direction;
 use crate::transport::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
 use crate::transport::medium::MediumModel;
 

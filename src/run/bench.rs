@@ -20,8 +20,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::error::Result;
+use crate::film::directions::{render_directions, render_directions_all};
+use crate::film::tally::Tally;
 use crate::job::Job;
-use crate::run::render::{Tally, render_directions, render_directions_all};
+use crate::sampling::stream::Render;
 
 /// The reference case as a job file (also `examples/throughput_reference.toml`).
 pub const REFERENCE_JOB: &str = include_str!(concat!(
@@ -38,7 +40,14 @@ pub fn run(samples: u64, out: &mut dyn Write) -> Result<f64> {
     let directions = job.render.directions();
     let threads = rayon::current_num_threads();
     // A short warm-up (page faults, thread start) outside the timing.
-    render_directions(&scene, job.observer_altitude_km, directions, 256, 7, 7);
+    render_directions(
+        &scene,
+        job.observer_altitude_km,
+        directions,
+        256,
+        7,
+        Render::channel(0, 7),
+    );
     let start = Instant::now();
     let tallies = render_directions(
         &scene,
@@ -46,7 +55,7 @@ pub fn run(samples: u64, out: &mut dyn Write) -> Result<f64> {
         directions,
         samples,
         job.render.seed,
-        0,
+        Render::channel(0, 0),
     );
     let secs = start.elapsed().as_secs_f64();
     let paths = samples * directions.len() as u64;
@@ -128,7 +137,7 @@ fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn 
     let shared = job
         .spectral_scene(&job.tasks[0])
         .expect("the reference atmosphere is piecewise constant");
-    let (t_shared, tallies) = timed(|| render_directions_all(&shared, alt, dirs, samples, seed, 0));
+    let (t_shared, tallies) = timed(|| render_directions_all(&shared, alt, dirs, samples, seed, Render::channel(0, 0)));
     writeln!(
         out,
         "{} along shared paths: {t_shared:.3} s, cost ratio {:.3} to 550 nm alone",
@@ -140,7 +149,8 @@ fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn 
     for index in [0, last] {
         let lambda = spectrum.wavelengths[index];
         let alone = variant(&spectrum.keys(&[lambda]), "0.3")?;
-        let (t, dedicated) = timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, 0));
+        let (t, dedicated) =
+            timed(|| render_directions(&alone.scene(0), alt, dirs, samples, seed, Render::channel(0, 0)));
         let dedicated_se = mean_rel_se(&dedicated);
         let shared_se = mean_rel_se(&tallies[index][0]);
         // A dedicated run of the shared run's time: its error scales as 1/√time.
@@ -178,11 +188,11 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
     let dirs = single.render.directions();
     let alt = single.observer_altitude_km;
     let scene = single.scene(0);
-    render_directions(&scene, alt, dirs, 256, 7, 7);
-    let (t_one, split) = timed(|| render_directions(&scene, alt, dirs, samples, seed, 0));
+    render_directions(&scene, alt, dirs, 256, 7, Render::channel(0, 7));
+    let (t_one, split) = timed(|| render_directions(&scene, alt, dirs, samples, seed, Render::channel(0, 0)));
     let albedos = variant("550.0", "[0.0, 0.3, 0.6, 1.0]")?;
     let scene4 = albedos.scene(0);
-    let (t_four, _) = timed(|| render_directions_all(&scene4, alt, dirs, samples, seed, 0));
+    let (t_four, _) = timed(|| render_directions_all(&scene4, alt, dirs, samples, seed, Render::channel(0, 0)));
     let paths = samples * dirs.len() as u64;
     writeln!(
         out,
@@ -219,7 +229,9 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
             Path::new("."),
         )?;
         let scene = job.scene(0);
-        Ok(timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)))
+        Ok(timed(|| {
+            render_directions(&scene, alt, dirs, samples, seed, Render::channel(0, 0))
+        }))
     };
     // Mean over the directions of (a's standard error / b's)² for Stokes
     // component s.
@@ -253,7 +265,8 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
         efficiency(2)
     )
     .map_err(io)?;
-    let (t_serial, _) = serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, 0)));
+    let (t_serial, _) =
+        serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, Render::channel(0, 0))));
     writeln!(
         out,
         "one thread: {t_serial:.3} s; {threads} threads vs 1: throughput ratio {:.3}",

@@ -24,8 +24,8 @@ use crate::error::{Error, Result};
 use crate::job::Job;
 use std::io::Write;
 
+use crate::film::tally::Tally;
 use crate::io::output::write_atomic_with;
-use crate::run::render::Tally;
 use crate::run::shard::Shard;
 use crate::run::work_unit::UnitState;
 

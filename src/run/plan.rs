@@ -11,14 +11,16 @@
 use std::io::{self, Write};
 use std::time::Instant;
 
+use crate::film::directions::{render_directions, render_directions_all};
 use crate::job::{Job, Sensor, Task};
-use crate::run::render::{Direction, render_directions, render_directions_all};
 use crate::run::shard::Shard;
 use crate::run::work_unit::Layout;
+use crate::sampling::stream::Render;
+use crate::sensor::direction::Direction;
 
 /// Paths of one task (shared spectral paths and single-wavelength paths).
 pub fn task_paths(job: &Job, task: &Task) -> u64 {
-    let (shared, single) = layout(job, task).paths_by_source(Shard::WHOLE);
+    let (shared, single) = layout(job, task).paths_by_channels(Shard::WHOLE);
     shared + single
 }
 
@@ -98,7 +100,7 @@ pub struct Rates {
 
 /// Core-seconds of one task at `rates`.
 pub fn task_core_seconds(job: &Job, task: &Task, rates: &Rates) -> f64 {
-    let (shared, single) = layout(job, task).paths_by_source(Shard::WHOLE);
+    let (shared, single) = layout(job, task).paths_by_channels(Shard::WHOLE);
     single as f64 / rates.single.max(1e-9) + shared as f64 / rates.shared.unwrap_or(rates.single).max(1e-9)
 }
 
@@ -146,11 +148,11 @@ fn calibrate_task(job: &Job, task: &Task) -> Rates {
     let seed = job.render.seed;
     Rates {
         single: rate(&|n| {
-            render_directions(&scene, alt, &directions, n, seed, u64::MAX);
+            render_directions(&scene, alt, &directions, n, seed, Render::Calibration);
         }),
         shared: job.spectral_scene(task).map(|shared| {
             rate(&|n| {
-                render_directions_all(&shared, alt, &directions, n, seed, u64::MAX);
+                render_directions_all(&shared, alt, &directions, n, seed, Render::Calibration);
             })
         }),
     }
@@ -254,7 +256,7 @@ pub fn unit_memory_mib(job: &Job) -> u64 {
     let task = &job.tasks[0];
     let layout = crate::run::work_unit::Layout::new(job, task, job.spectral_scene(task).is_some());
     let tallies: u64 = (0..layout.estimates.len()).map(|e| layout.tallies(e) as u64).sum();
-    let bytes = tallies * std::mem::size_of::<crate::run::render::Tally>() as u64 * 2 + layout.pixels as u64 * 8;
+    let bytes = tallies * std::mem::size_of::<crate::film::tally::Tally>() as u64 * 2 + layout.pixels as u64 * 8;
     256 + bytes.div_ceil(1 << 20) * 5 / 4
 }
 

@@ -5,7 +5,7 @@
 //! Every sample has a fixed index and its own random stream (see
 //! [`crate::sampling::sampler`]), so a shard is just a range of sample indices: for a
 //! `directions` sensor a range of whole sample blocks (the unit of parallel
-//! work, [`crate::run::render::BLOCK`]), for an image a range of samples per pixel.
+//! work, [`crate::film::tally::BLOCK`]), for an image a range of samples per pixel.
 //! Range `K` of `N` over `n` items is `[⌊(K−1)·n/N⌋, ⌊K·n/N⌋)`: the ranges
 //! tile `[0, n)` without overlap whatever `n` and `N` are (a shard may be
 //! empty when `N > n`).

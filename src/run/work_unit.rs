@@ -21,57 +21,48 @@ use crate::error::Result;
 use crate::film::image::{self, ActivePixels, ImageLayer, PixelSampling};
 use crate::sensor::camera::Camera;
 
+use crate::film::fluxes::{self, Fluxes};
+use crate::film::tally::{self, BLOCK, Tally};
 use crate::io::output::{FluxRow, RadianceRow};
 use crate::job::{Job, Sensor, Task};
-use crate::run::render::{self, BLOCK, Fluxes, RenderResult, Tally};
+use crate::run::render::RenderResult;
 use crate::run::shard::Shard;
 use crate::run::sky_image::SkyImage;
+use crate::sampling::stream::{self, Channels, Render, StreamKey};
 use crate::transport::spectral::Scene;
-
-/// Where an estimate's radiance comes from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Source {
-    /// All of the job's wavelengths along shared paths: wavelengths × albedos values.
-    Shared,
-    /// One wavelength (index): one value per albedo.
-    Wavelength(usize),
-}
 
 /// What an estimate measures.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EstimateKind {
     /// The radiance of viewing direction `direction` (index).
-    Direction { source: Source, direction: usize },
+    Direction { channels: Channels, direction: usize },
     /// The downward (`up` false) or upward irradiance: at one
     /// wavelength, or at every channel along shared paths (bands, whose
     /// wavelengths vary per path).
-    Flux { source: Source, up: bool },
+    Flux { channels: Channels, up: bool },
     /// Every pixel of the image.
-    Pixels { source: Source },
+    Pixels { channels: Channels },
 }
 
 impl EstimateKind {
     /// The wavelengths the estimate's paths carry.
-    pub fn source(&self) -> Source {
+    pub fn channels(&self) -> Channels {
         match *self {
-            EstimateKind::Direction { source, .. }
-            | EstimateKind::Flux { source, .. }
-            | EstimateKind::Pixels { source } => source,
+            EstimateKind::Direction { channels, .. }
+            | EstimateKind::Flux { channels, .. }
+            | EstimateKind::Pixels { channels } => channels,
         }
     }
 }
 
-/// One estimate of a task: its kind, its stream keys and the number of
+/// One estimate of a task: its kind, its stream key and the number of
 /// values each sample gives.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     pub kind: EstimateKind,
-    pub keys: [u64; 3],
+    pub key: StreamKey,
     pub values: usize,
 }
-
-/// The stream key's wavelength slot for shared spectral paths.
-pub const SHARED_STREAM: usize = 0xFFFF;
 
 /// The estimates of a task, in a fixed order.
 #[derive(Debug, Clone)]
@@ -102,7 +93,6 @@ impl Layout {
         let spec = &job.render;
         let (nw, na) = (job.wavelengths_nm.len(), spec.albedos.len());
         let seed = spec.seed;
-        let key = |w: usize| render::stream_key(task.index, w);
         let mut estimates = Vec::new();
         let (mut pixels, mut active) = (0, None);
         match &spec.sensor {
@@ -111,10 +101,10 @@ impl Layout {
                     for d in 0..directions.len() {
                         estimates.push(Estimate {
                             kind: EstimateKind::Direction {
-                                source: Source::Shared,
+                                channels: Channels::Shared,
                                 direction: d,
                             },
-                            keys: [seed, key(SHARED_STREAM), d as u64],
+                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::Direction(d)),
                             values: nw * na,
                         });
                     }
@@ -124,10 +114,10 @@ impl Layout {
                     for up in [false, true] {
                         estimates.push(Estimate {
                             kind: EstimateKind::Flux {
-                                source: Source::Shared,
+                                channels: Channels::Shared,
                                 up,
                             },
-                            keys: [seed, key(SHARED_STREAM), render::flux_stream(up)],
+                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::flux(up)),
                             values: nw * na,
                         });
                     }
@@ -137,10 +127,14 @@ impl Layout {
                         for d in 0..directions.len() {
                             estimates.push(Estimate {
                                 kind: EstimateKind::Direction {
-                                    source: Source::Wavelength(w),
+                                    channels: Channels::One(w),
                                     direction: d,
                                 },
-                                keys: [seed, key(w), d as u64],
+                                key: StreamKey::new(
+                                    seed,
+                                    Render::channel(task.index, w),
+                                    stream::Estimate::Direction(d),
+                                ),
                                 values: na,
                             });
                         }
@@ -149,10 +143,10 @@ impl Layout {
                         for up in [false, true] {
                             estimates.push(Estimate {
                                 kind: EstimateKind::Flux {
-                                    source: Source::Wavelength(w),
+                                    channels: Channels::One(w),
                                     up,
                                 },
-                                keys: [seed, key(w), render::flux_stream(up)],
+                                key: StreamKey::new(seed, Render::channel(task.index, w), stream::Estimate::flux(up)),
                                 values: na,
                             });
                         }
@@ -163,22 +157,25 @@ impl Layout {
                 let traced = ActivePixels::new(camera);
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
-                let sources: Vec<Source> = if shared {
-                    vec![Source::Shared]
+                let channel_sets: Vec<Channels> = if shared {
+                    vec![Channels::Shared]
                 } else {
-                    (0..nw).map(Source::Wavelength).collect()
+                    (0..nw).map(Channels::One).collect()
                 };
-                for source in sources {
-                    let w = match source {
-                        Source::Shared => SHARED_STREAM,
-                        Source::Wavelength(w) => w,
-                    };
+                for channels in channel_sets {
                     estimates.push(Estimate {
-                        kind: EstimateKind::Pixels { source },
-                        keys: [seed, key(w), 0],
-                        values: match source {
-                            Source::Shared => nw * na,
-                            Source::Wavelength(_) => na,
+                        kind: EstimateKind::Pixels { channels },
+                        key: StreamKey::new(
+                            seed,
+                            Render::Task {
+                                task: task.index,
+                                channels,
+                            },
+                            stream::Estimate::Pixel(0),
+                        ),
+                        values: match channels {
+                            Channels::Shared => nw * na,
+                            Channels::One(_) => na,
                         },
                     });
                 }
@@ -221,13 +218,13 @@ impl Layout {
     /// Paths a shard traces along shared spectral paths (every channel at
     /// once) and at single wavelengths, in that order: the two cost
     /// differently per path (`plan`).
-    pub fn paths_by_source(&self, shard: Shard) -> (u64, u64) {
+    pub fn paths_by_channels(&self, shard: Shard) -> (u64, u64) {
         let mut paths = (0, 0);
         for (e, estimate) in self.estimates.iter().enumerate() {
             let n = self.paths_of(e, &self.range(e, shard));
-            match estimate.kind.source() {
-                Source::Shared => paths.0 += n,
-                Source::Wavelength(_) => paths.1 += n,
+            match estimate.kind.channels() {
+                Channels::Shared => paths.0 += n,
+                Channels::One(_) => paths.1 += n,
             }
         }
         paths
@@ -254,7 +251,7 @@ impl Layout {
     fn paths_of(&self, e: usize, work: &std::ops::Range<u64>) -> u64 {
         match self.estimates[e].kind {
             EstimateKind::Pixels { .. } => self.active.as_ref().map_or(0, |a| a.paths(work)),
-            _ => render::block_samples(work, self.samples),
+            _ => tally::block_samples(work, self.samples),
         }
     }
 
@@ -381,11 +378,11 @@ struct Scenes<'a> {
 
 impl Scenes<'_> {
     /// The scene of an estimate's channels: all of them, or one alone.
-    fn of(&mut self, source: Source) -> &Scene {
+    fn of(&mut self, channels: Channels) -> &Scene {
         let (job, task) = (self.job, self.task);
-        match source {
-            Source::Shared => self.shared.as_ref().expect("a shared layout has a shared scene"),
-            Source::Wavelength(w) => self.single[w].get_or_insert_with(|| job.scene_for(task, w)),
+        match channels {
+            Channels::Shared => self.shared.as_ref().expect("a shared layout has a shared scene"),
+            Channels::One(w) => self.single[w].get_or_insert_with(|| job.scene_for(task, w)),
         }
     }
 }
@@ -461,14 +458,14 @@ pub fn run(
             };
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
-            let scene = scenes.of(est.kind.source());
+            let scene = scenes.of(est.kind.channels());
             match est.kind {
                 EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } => {
                     radiance_wave(scene, &context, &est, work.clone(), tallies)
                 }
                 EstimateKind::Flux { up, .. } => {
-                    render::tally_blocks(work.clone(), layout.samples, est.keys, tallies, |s, out| {
-                        render::flux_sample(scene, altitude_km, up, s, out)
+                    tally::tally_blocks(work.clone(), layout.samples, est.key, tallies, |s, out| {
+                        fluxes::flux_sample(scene, altitude_km, up, s, out)
                     })
                 }
             }
@@ -520,7 +517,7 @@ fn radiance_wave(
         (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
             let dir = directions[direction];
             let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
-            render::tally_blocks(work, layout.samples, est.keys, tallies, |s, out| {
+            tally::tally_blocks(work, layout.samples, est.key, tallies, |s, out| {
                 scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         }
@@ -532,8 +529,8 @@ fn radiance_wave(
                 frame: job.render.stokes_frame,
                 sun,
                 samples: layout.samples,
-                seed: est.keys[0],
-                key: est.keys[1],
+                seed: est.key.seed,
+                render: est.key.render,
             };
             image::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s, out| {
                 scene.radiance_sample(altitude_km, v, e1, s, out)
@@ -555,27 +552,27 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
     for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
         match est.kind {
-            EstimateKind::Direction { source, .. } => match source {
-                Source::Shared => {
+            EstimateKind::Direction { channels, .. } => match channels {
+                Channels::Shared => {
                     for (w, per_albedo) in radiance.iter_mut().enumerate() {
                         for (a, list) in per_albedo.iter_mut().enumerate() {
                             list.push(tallies[w * na + a]);
                         }
                     }
                 }
-                Source::Wavelength(w) => {
+                Channels::One(w) => {
                     for (a, list) in radiance[w].iter_mut().enumerate() {
                         list.push(tallies[a]);
                     }
                 }
             },
-            EstimateKind::Flux { source, up } => match source {
-                Source::Shared => {
+            EstimateKind::Flux { channels, up } => match channels {
+                Channels::Shared => {
                     for (w, f) in flux.iter_mut().enumerate() {
                         f[up as usize] = tallies[w * na..(w + 1) * na].to_vec();
                     }
                 }
-                Source::Wavelength(w) => flux[w][up as usize] = tallies.clone(),
+                Channels::One(w) => flux[w][up as usize] = tallies.clone(),
             },
             EstimateKind::Pixels { .. } => {}
         }
@@ -623,13 +620,13 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
     let na = spec.albedos.len();
     let mut layers = Vec::new();
     for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
-        let EstimateKind::Pixels { source } = est.kind else {
+        let EstimateKind::Pixels { channels } = est.kind else {
             continue;
         };
         let (per_value, non_finite) = image::split_values(tallies, est.values);
-        let wavelengths: Vec<usize> = match source {
-            Source::Shared => (0..job.wavelengths_nm.len()).collect(),
-            Source::Wavelength(w) => vec![w],
+        let wavelengths: Vec<usize> = match channels {
+            Channels::Shared => (0..job.wavelengths_nm.len()).collect(),
+            Channels::One(w) => vec![w],
         };
         for (k, &w) in wavelengths.iter().enumerate() {
             for (a, &albedo) in spec.albedos.iter().enumerate() {

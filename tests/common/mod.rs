@@ -8,9 +8,12 @@
 use std::path::Path;
 
 use atmosim::compat::stats::sidak_threshold;
+use atmosim::film::directions::render_directions;
+use atmosim::film::tally::Tally;
 use atmosim::job::Job;
 use atmosim::physics::data::Table;
-use atmosim::run::render::{Direction, Tally, render_directions};
+use atmosim::sampling::stream::Render;
+use atmosim::sensor::direction::Direction;
 
 /// Reads a table of the repository (validation/…).
 pub fn table(rel: &str) -> Table {
@@ -46,7 +49,14 @@ pub fn directions(pairs: &[(f64, f64)]) -> Vec<Direction> {
 
 /// Renders `directions` of wavelength index 0 of `job` at `altitude_km`.
 pub fn render(job: &Job, altitude_km: f64, directions: &[Direction], samples: u64) -> Vec<Tally> {
-    render_directions(&job.scene(0), altitude_km, directions, samples, job.render.seed, 0)
+    render_directions(
+        &job.scene(0),
+        altitude_km,
+        directions,
+        samples,
+        job.render.seed,
+        Render::channel(0, 0),
+    )
 }
 
 /// A family of comparisons with a reference.

@@ -18,7 +18,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::job::Job;
-use crate::run::render::Direction;
+use crate::sensor::direction::Direction;
 
 mod output;
 

@@ -10,15 +10,13 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::UvspecInput;
+use crate::film::directions::render_directions_all;
+use crate::film::fluxes::{Fluxes, render_fluxes_all};
+use crate::film::tally::{Tally, tally};
 use crate::job::Job;
 use crate::polarization::stokes::{Stokes, meridian_frame};
-use crate::run::render::{Direction, Fluxes, Tally, render_directions_all, render_fluxes_all, stream_key, tally};
-
-/// Stream keys of the estimates that are not directions (directions use
-/// their index).
-const U0U_KEY: u64 = 1 << 40;
-const UAVG_DOWN_KEY: u64 = u64::MAX - 3;
-const UAVG_UP_KEY: u64 = u64::MAX - 4;
+use crate::sampling::stream::{Estimate, Render, StreamKey};
+use crate::sensor::direction::Direction;
 
 /// The results at one output altitude.
 #[derive(Debug, Clone)]
@@ -71,11 +69,11 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
     for task in &job.tasks {
         let scene = job.scene_for(task, 0);
         let z = task.observer_altitude_km;
-        let key = stream_key(task.index, 0);
+        let render = Render::channel(task.index, 0);
         let uu = if directions.is_empty() {
             Vec::new()
         } else {
-            render_directions_all(&scene, z, &directions, samples, seed, key)
+            render_directions_all(&scene, z, &directions, samples, seed, render)
                 .swap_remove(0)
                 .swap_remove(0)
         };
@@ -87,7 +85,7 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                 let theta = input.direction(umu, 0.0).view_zenith_deg;
                 tally(
                     samples,
-                    [seed, key, U0U_KEY + k as u64],
+                    StreamKey::new(seed, render, Estimate::AzimuthalAverage(k)),
                     scene.value_count(),
                     |s, out| {
                         let phi = 360.0 * s.next_f64();
@@ -100,27 +98,32 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                 )[0]
             })
             .collect();
-        let mut fluxes = render_fluxes_all(&scene, z, samples, seed, key).swap_remove(0);
+        let mut fluxes = render_fluxes_all(&scene, z, samples, seed, render).swap_remove(0);
         let direct_transmittance = scene.direct_normal(z, 0, false);
         fluxes.e_dir = direct_transmittance * task.sun.direction.z.max(0.0);
         // Mean intensity: uniform directions over each hemisphere, (1/4π)·2π·⟨L⟩.
-        let uavg = |stream: u64, sign: f64| {
-            let t = tally(samples, [seed, key, stream], scene.value_count(), |s, out| {
-                let u: [f64; 2] = s.next2();
-                let cos_t = sign * u[0];
-                let sin_t = (1.0 - u[0] * u[0]).max(0.0).sqrt();
-                let phi = 2.0 * PI * u[1];
-                let v = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-                scene.radiance_sample(z, v, meridian_frame(v, phi).0, s, out);
-                for x in out.iter_mut() {
-                    *x = Stokes::new(0.5 * x.0[0], 0.0, 0.0, 0.0);
-                }
-            })[0];
+        let uavg = |estimate: Estimate, sign: f64| {
+            let t = tally(
+                samples,
+                StreamKey::new(seed, render, estimate),
+                scene.value_count(),
+                |s, out| {
+                    let u: [f64; 2] = s.next2();
+                    let cos_t = sign * u[0];
+                    let sin_t = (1.0 - u[0] * u[0]).max(0.0).sqrt();
+                    let phi = 2.0 * PI * u[1];
+                    let v = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+                    scene.radiance_sample(z, v, meridian_frame(v, phi).0, s, out);
+                    for x in out.iter_mut() {
+                        *x = Stokes::new(0.5 * x.0[0], 0.0, 0.0, 0.0);
+                    }
+                },
+            )[0];
             (t.mean()[0], t.standard_error()[0])
         };
         // Light travelling down is seen looking up.
-        let uavg_down = uavg(UAVG_DOWN_KEY, 1.0);
-        let uavg_up = uavg(UAVG_UP_KEY, -1.0);
+        let uavg_down = uavg(Estimate::MeanIntensityDown, 1.0);
+        let uavg_up = uavg(Estimate::MeanIntensityUp, -1.0);
         zout.push(ZoutResult {
             zout_km: z,
             fluxes,

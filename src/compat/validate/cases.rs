@@ -8,9 +8,12 @@ use std::path::Path;
 
 use super::{Case, Value};
 use crate::error::Result;
+use crate::film::directions::render_directions;
+use crate::film::tally::Tally;
 use crate::job::Job;
 use crate::physics::data::Table;
-use crate::run::render::{Direction, Tally, render_directions};
+use crate::sampling::stream::Render;
+use crate::sensor::direction::Direction;
 
 macro_rules! reference {
     ($path:literal) => {
@@ -47,7 +50,14 @@ pub(super) fn job(text: &str) -> Result<Job> {
 
 /// Renders `directions` at wavelength index 0 of the job's first task.
 pub(super) fn render(job: &Job, altitude_km: f64, directions: &[Direction], samples: u64) -> Vec<Tally> {
-    render_directions(&job.scene(0), altitude_km, directions, samples, job.render.seed, 0)
+    render_directions(
+        &job.scene(0),
+        altitude_km,
+        directions,
+        samples,
+        job.render.seed,
+        Render::channel(0, 0),
+    )
 }
 
 fn directions(rows: &[&Vec<f64>], zen: usize, az: usize) -> Vec<Direction> {

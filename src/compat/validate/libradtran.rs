@@ -17,8 +17,9 @@ use super::cases::push;
 use super::{Case, Value};
 use crate::compat::uvspec::UvspecInput;
 use crate::error::{Error, Result};
+use crate::film::directions::render_directions_all;
 use crate::physics::data::Table;
-use crate::run::render::{render_directions_all, stream_key};
+use crate::sampling::stream::Render;
 
 const REFERENCE: &str = include_str!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -86,9 +87,16 @@ fn compare(
     for task in &job.tasks {
         let z = task.observer_altitude_km;
         let scene = job.scene_for(task, 0);
-        let tallies = render_directions_all(&scene, z, &dirs, samples, job.render.seed, stream_key(task.index, 0))
-            .swap_remove(0)
-            .swap_remove(0);
+        let tallies = render_directions_all(
+            &scene,
+            z,
+            &dirs,
+            samples,
+            job.render.seed,
+            Render::channel(task.index, 0),
+        )
+        .swap_remove(0)
+        .swap_remove(0);
         for ((umu, phi, d), t) in directions.iter().zip(&tallies) {
             let row = reference
                 .rows
