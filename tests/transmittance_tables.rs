@@ -5,10 +5,10 @@
 mod common;
 
 use atmosim::geometry::shell::Geometry;
-use atmosim::transport::medium::{Medium, MediumModel};
-use atmosim::transport::transmittance::{
-    Estimator, Grid, Sight, TransmittanceSpec, compute, line_of_sight, optical_depth_to,
-};
+use atmosim::job::options::MediumModel;
+use atmosim::job::transmittance::{Estimator, Grid, TransmittanceSpec};
+use atmosim::transport::medium::Medium;
+use atmosim::transport::transmittance::{Sight, compute, line_of_sight, optical_depth_to};
 use common::{Comparison, job};
 
 fn media(text: &str, model: MediumModel, scale: f64) -> (Vec<Medium>, Geometry) {

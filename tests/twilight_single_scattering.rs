@@ -15,9 +15,10 @@
 mod common;
 
 use atmosim::job::Job;
+use atmosim::job::options::MediumModel;
 use atmosim::polarization::phase::PhaseFunction;
 use atmosim::sensor::direction::Direction;
-use atmosim::transport::medium::{Medium, MediumModel};
+use atmosim::transport::medium::Medium;
 use atmosim::transport::tracking::{self, Ray, WalkEnd};
 use common::{Comparison, directions, job, render};
 

@@ -23,7 +23,7 @@ mod common;
 use std::time::Instant;
 
 use atmosim::film::tally::Tally;
-use atmosim::transport::integrator::SunSampling;
+use atmosim::job::options::SunSampling;
 use common::{Comparison, directions, job, render, samples};
 
 const SEEDS: u64 = 16;

@@ -9,8 +9,9 @@ use crate::error::{Error, Result};
 use crate::film::fluxes::Fluxes;
 use crate::film::tally::Tally;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
+use crate::job::transmittance::Grid;
 use crate::sensor::direction::Direction;
-use crate::transport::transmittance::{Grid, Table as TransmittanceTable};
+use crate::transport::transmittance::Table as TransmittanceTable;
 
 /// Header of the radiance CSV of a `directions` sensor.
 pub const RADIANCE_CSV_HEADER: &str =

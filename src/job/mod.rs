@@ -13,12 +13,11 @@ use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
+use crate::job::spectrum::Channel;
+use crate::job::transmittance::TransmittanceSpec;
 use crate::physics::ozone::OzoneModel;
 use crate::physics::rayleigh::RayleighModel;
 use crate::physics::solar::SolarSpectrum;
-use crate::transport::medium::MediumModel;
-use crate::transport::spectral::{Channel, MediumSettings, Scene};
-use crate::transport::transmittance::TransmittanceSpec;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
 use raw::RawJob;
 use spectrum::{band_error, band_widths};
@@ -32,10 +31,11 @@ pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
 
 mod atmosphere;
 pub mod input;
+pub mod options;
 mod raw;
 mod render;
-mod spectrum;
-mod transmittance;
+pub mod spectrum;
+pub mod transmittance;
 
 pub use render::{RenderSpec, Sensor, Units};
 
@@ -215,51 +215,6 @@ impl Job {
             .collect()
     }
 
-    /// The shared-spectral-path scene of a task: all channels at once, when
-    /// the job has bands, or more than one wavelength with
-    /// `render.shared_wavelengths` on (see `spectral`); `None` otherwise.
-    pub fn spectral_scene(&self, task: &Task) -> Option<Scene> {
-        let wanted = self.banded() || (self.render.shared_wavelengths && self.wavelengths_nm.len() > 1);
-        wanted.then(|| self.scene_of(task, self.channels()))
-    }
-
-    /// The scene of `channels` for a task, with the job's albedos, medium
-    /// and settings. Sun-aware connections as `render.sun_sampling` asks,
-    /// where σ is constant per layer and flights are forced.
-    fn scene_of(&self, task: &Task, channels: Vec<Channel>) -> Scene {
-        let r = &self.render;
-        let medium = MediumSettings {
-            shapes: match r.medium {
-                MediumModel::Layered => None,
-                MediumModel::Smooth => task.atmosphere.layer_shapes.clone(),
-            },
-            majorant_scale: r.majorant_scale,
-            pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
-        };
-        let sun_aware = r
-            .settings
-            .sun_sampling
-            .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport())
-            && r.settings.forced_collisions
-            && medium.shapes.is_none()
-            && r.majorant_scale == 1.0;
-        let scene = Scene::new(
-            self.geometry(),
-            task.atmosphere.levels_km.clone(),
-            task.atmosphere.terms.clone(),
-            channels,
-            task.sun,
-            r.albedos.clone(),
-            r.settings,
-            medium,
-        );
-        let scene = if sun_aware { scene.with_sun_aware() } else { scene };
-        match &self.solar {
-            Some(solar) if self.tracer_weights_by_source() => scene.with_source(solar.clone()),
-            _ => scene,
-        }
-    }
-
     /// Whether the tracer itself weights each path by E0 at the
     /// wavelengths it drew: bands in absolute units (the band average of
     /// E0·L is not the product of the averages).
@@ -324,17 +279,6 @@ impl Job {
             ));
         }
         Ok(())
-    }
-
-    /// The scene of the first task at wavelength index `w`.
-    pub fn scene(&self, w: usize) -> Scene {
-        self.scene_for(&self.tasks[0], w)
-    }
-
-    /// The scene of a task at channel index `w` alone, with all the job's
-    /// albedos.
-    pub fn scene_for(&self, task: &Task, w: usize) -> Scene {
-        self.scene_of(task, vec![self.channels()[w]])
     }
 
     /// The built-in default job: US-standard atmosphere, Bogumil ozone,

@@ -9,11 +9,11 @@ use super::raw::{
     RawSensor, RawSensorKind, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
 };
 use crate::error::Result;
+use crate::job::options::MediumModel;
+use crate::job::options::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
-use crate::transport::integrator::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
-use crate::transport::medium::MediumModel;
 
 /// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;

@@ -68,3 +68,19 @@ pub(super) fn band_error(ctx: &Ctx, wavelengths_nm: &[f64], widths_nm: &[f64], e
         other => Error::data("built-in data", format!("{other:?}")),
     }
 }
+
+/// One output channel: a wavelength, or a band around it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Channel {
+    pub lambda_nm: f64,
+    /// Full width of the band centred on `lambda_nm`; 0 for one wavelength.
+    pub band_width_nm: f64,
+}
+
+impl Channel {
+    /// The channel's wavelength for a uniform variate `u` (its centre for a
+    /// monochromatic channel).
+    pub fn wavelength(&self, u: f64) -> f64 {
+        self.lambda_nm + self.band_width_nm * (u - 0.5)
+    }
+}

@@ -3,7 +3,76 @@
 use super::Ctx;
 use super::raw::{RawEstimator, RawTransmittance};
 use crate::error::Result;
-use crate::transport::transmittance::{Estimator, Grid, SKY_MODEL_MAX_DISTANCE_KM, TransmittanceSpec};
+
+/// The sky model's maximum distance to the edge of the atmosphere (km).
+pub const SKY_MODEL_MAX_DISTANCE_KM: f64 = 1571.524;
+
+/// Which estimator fills the table (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimator {
+    RatioTracking,
+    /// Ratio tracking of the residual σ_t − σ̄_layer against the exact
+    /// transmittance of the layer means (the control).
+    ResidualRatioTracking,
+    Analytic,
+}
+
+impl Estimator {
+    /// The job-file spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::RatioTracking => "ratio_tracking",
+            Estimator::ResidualRatioTracking => "residual_ratio_tracking",
+            Estimator::Analytic => "analytic",
+        }
+    }
+}
+
+/// The grid: altitudes (rows) × ground distances (columns).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    pub altitudes_km: Vec<f64>,
+    pub distances_km: Vec<f64>,
+    /// How the nodes were made, for metadata.
+    pub definition: String,
+}
+
+impl Grid {
+    /// The sky model's layout with `n_a` altitude and `n_d` distance nodes.
+    pub fn sky_model(top_km: f64, n_a: usize, n_d: usize, max_distance_km: f64) -> Grid {
+        let node = |i: usize, n: usize, p: i32| (i as f64 / (n - 1) as f64).powi(p);
+        Grid {
+            altitudes_km: (0..n_a).map(|i| top_km * node(i, n_a, 3)).collect(),
+            distances_km: (0..n_d).map(|j| max_distance_km * node(j, n_d, 4)).collect(),
+            definition: format!(
+                "a_i = {top_km}*(i/{})^3 km, i = 0..{}; d_j = {max_distance_km}*(j/{})^4 km, j = 0..{}",
+                n_a - 1,
+                n_a - 1,
+                n_d - 1,
+                n_d - 1
+            ),
+        }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.altitudes_km.len() * self.distances_km.len()
+    }
+
+    /// True for a grid without points.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Settings of a transmittance computation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TransmittanceSpec {
+    pub grid: Grid,
+    pub estimator: Estimator,
+    pub samples: u64,
+    pub export_sqrt: bool,
+}
 
 /// Default altitude nodes of the sky-model layout.
 pub const DEFAULT_ALTITUDE_NODES: usize = 32;

@@ -14,80 +14,8 @@ use crate::polarization::stokes::StokesRotation;
 use crate::transport::medium::PointCoefficients;
 use crate::transport::tracking::Ray;
 
-/// How shadow rays toward the sun get their transmittance (closed set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SunTransmittance {
-    Analytic,
-    RatioTracking,
-}
-
-/// Settings of the transport.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    pub polarized: bool,
-    /// Highest scattering order counted (ground reflections included); 0 =
-    /// unlimited.
-    pub max_scattering_order: u32,
-    pub sun_transmittance: SunTransmittance,
-    /// Force a collision on flights that would otherwise leave the
-    /// atmosphere or die on a black ground (piecewise-constant media).
-    pub forced_collisions: bool,
-    /// Sun connections per forced flight: stratified points along the
-    /// flight, each with 1/K of the weight (the path goes on from one of
-    /// them, picked uniformly).
-    pub sun_samples_per_flight: u32,
-    /// How next-event points along a flight are chosen.
-    pub sun_sampling: SunSampling,
-    /// Split the sensor path at its first vertex: a forced flight toward a
-    /// reflecting ground follows both of its ends ([`GroundEnd::Split`]),
-    /// and the first scattering goes on in two directions a quarter turn
-    /// apart about the line of sight (`quarter_turn`), half the weight
-    /// each.
-    pub first_vertex_splitting: bool,
-}
-
-impl Settings {
-    /// Whether a path that has reached scattering order `order` stops.
-    pub fn order_done(&self, order: u32) -> bool {
-        self.max_scattering_order != 0 && order >= self.max_scattering_order
-    }
-}
-
-/// Where on a flight the sun is connected to (closed set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SunSampling {
-    /// At the collision the path goes on from.
-    Collision,
-    /// At a point drawn from a density that follows the sunlit single
-    /// scattering along the flight (piecewise-constant media): 4.1–5.4×
-    /// the time per path of `Collision` in spherical geometry, and far less
-    /// noise for a set sun (`tests/twilight_sun_sampling.rs`).
-    SunAware,
-    /// `SunAware` in plane-parallel geometry (where it costs little) and
-    /// for a sun lower than 10° above the horizon, else `Collision`. The
-    /// switch is where the measured efficiency of the two crosses over:
-    /// with the sun set, sun-aware is 3.9–7.0× as efficient at 420 nm and
-    /// 0.74–1.5× at 620 nm (median over directions); at 10° it is 0.40–0.51×
-    /// at 420 nm and 1.7–4.1× at 620 nm; at 20° 0.36–0.38× and 1.7–3.1×
-    /// (README, "Sun connections at twilight").
-    Auto,
-}
-
-impl SunSampling {
-    /// Whether a sun at `zenith_deg` gets sun-aware sampling.
-    pub fn is_sun_aware(self, zenith_deg: f64, plane_parallel: bool) -> bool {
-        match self {
-            SunSampling::Collision => false,
-            SunSampling::SunAware => true,
-            SunSampling::Auto => plane_parallel || zenith_deg > 80.0,
-        }
-    }
-}
-
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
 
-/// The most ground albedos one render estimates.
-pub const MAX_ALBEDOS: usize = 8;
 /// Throughput below which Russian roulette starts.
 pub(crate) const ROULETTE_THRESHOLD: f64 = 0.1;
 

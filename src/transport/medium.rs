@@ -15,17 +15,11 @@
 //!
 //! `majorant_scale` ≥ 1 inflates every majorant (for testing the trackers).
 
+use crate::job::options::MediumModel;
 use glam::DVec3;
 
 use crate::atmosphere::{Atmosphere, LayerOptics, LayerShape};
 use crate::geometry::shell::Geometry;
-
-/// Density model inside a layer (closed set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MediumModel {
-    Layered,
-    Smooth,
-}
 
 /// Coefficients (km⁻¹) at a point.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -79,6 +79,7 @@
 //! What was measured and chosen (hero choice, roulette, splitting, the
 //! sun-aware share): README, "Throughput" and "Sun connections".
 
+use crate::job::spectrum::Channel;
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
 use std::ops::ControlFlow;
@@ -90,6 +91,7 @@ use crate::atmosphere::LayerShape;
 use crate::atmosphere::spectral_terms::{Response, SpectralTerms, TermShape};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
+use crate::job::options::{MAX_ALBEDOS, Settings, SunTransmittance};
 use crate::physics::solar::SolarSpectrum;
 use crate::polarization::phase::PhaseFunction;
 use crate::polarization::phase::PhaseMixture;
@@ -97,8 +99,8 @@ use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 use crate::transport::flight_density::FlightDensity;
 use crate::transport::integrator::{
-    INV_4PI, MAX_ALBEDOS, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, Settings, SunTransmittance, cosine_hemisphere,
-    phase_mixture, pick_component, quarter_turn, reference_albedo, reflects, scattering_frame, sun_ray,
+    INV_4PI, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, cosine_hemisphere, phase_mixture, pick_component, quarter_turn,
+    reference_albedo, reflects, scattering_frame, sun_ray,
 };
 use crate::transport::medium::{PointCoefficients, density_steps, shape_integrals};
 use crate::transport::sun_depth::SunDepth;
@@ -106,22 +108,6 @@ use crate::transport::tracking::{self, FlightEnd, Ray, Segment, ShellExit, WalkE
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
 pub const DIRECT_CELL_NM: f64 = 0.05;
-
-/// One output channel: a wavelength, or a band around it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Channel {
-    pub lambda_nm: f64,
-    /// Full width of the band centred on `lambda_nm`; 0 for one wavelength.
-    pub band_width_nm: f64,
-}
-
-impl Channel {
-    /// The channel's wavelength for a uniform variate `u` (its centre for a
-    /// monochromatic channel).
-    pub fn wavelength(&self, u: f64) -> f64 {
-        self.lambda_nm + self.band_width_nm * (u - 0.5)
-    }
-}
 
 /// What the channels' optics are on one path: each channel's term
 /// responses (`[channel·terms + term]`), extinction weights on the

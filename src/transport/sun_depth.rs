@@ -368,7 +368,7 @@ impl SunDepth {
 mod tests {
     use super::*;
     use crate::job::Job;
-    use crate::transport::medium::MediumModel;
+    use crate::job::options::MediumModel;
     use std::path::Path;
 
     #[test]

@@ -685,7 +685,7 @@ pub fn layer_at(levels_km: &[f64], z_km: f64, up_dot: f64) -> Option<usize> {
 mod tests {
     use super::*;
     use crate::job::Job;
-    use crate::transport::medium::MediumModel;
+    use crate::job::options::MediumModel;
     use std::path::Path;
 
     const R: f64 = 6378.0;
