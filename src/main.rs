@@ -20,7 +20,7 @@ use atmosim::run::out_dir::Destination;
 use atmosim::run::shard::Shard;
 use atmosim::run::task_output::{self, RunInfo};
 use atmosim::run::work_unit::{self, Control, Layout, Outcome, UnitState};
-use atmosim::run::{merge, plan, render};
+use atmosim::run::{merge, plan};
 use atmosim::transport::medium::Medium;
 use atmosim::transport::transmittance;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -311,7 +311,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 let spec = &job.transmittance;
                 let dir = dir_of(name);
                 let csv = output::transmittance_csv(&job.wavelengths_nm, &spec.grid, &table, spec.export_sqrt);
-                output::write_atomic(&dir.join("transmittance.csv"), csv.as_bytes())?;
+                atmosim::io::atomic::write_atomic(&dir.join("transmittance.csv"), csv.as_bytes())?;
                 output::write_transmittance_exr(
                     &dir.join("transmittance.exr"),
                     &job.wavelengths_nm,
@@ -441,7 +441,7 @@ fn render_stdout(job: &Job, tasks: &[&Task], pool: &rayon::ThreadPool, quiet: bo
     };
     let mut out = std::io::stdout().lock();
     for task in tasks {
-        let result = pool.install(|| render::render_task(job, task, &log));
+        let result = pool.install(|| atmosim::run::task::render_directions(job, task, &log))?;
         if job.tasks.len() > 1 {
             writeln!(out, "# task {}", task.name).context("writing to stdout")?;
         }
@@ -802,7 +802,7 @@ fn write_slurm(
     let logs = out_dir.join("slurm").join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let path = out_dir.join("slurm").join("render.sbatch");
-    output::write_atomic(&path, script.as_bytes())?;
+    atmosim::io::atomic::write_atomic(&path, script.as_bytes())?;
     let units = plan::units(job, shards);
     if units > 1001 {
         eprintln!(

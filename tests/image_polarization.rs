@@ -19,7 +19,6 @@ mod common;
 use std::f64::consts::PI;
 
 use atmosim::job::Sensor;
-use atmosim::run::sky_image;
 use common::{Comparison, job, layers_toml};
 use glam::DVec3;
 
@@ -99,7 +98,7 @@ fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
     };
     let task = &j.tasks[0];
     let sun = task.sun.direction;
-    let image = sky_image::render(&j, task, &camera, &|_| {}, &|_| {});
+    let image = atmosim::run::task::render_image(&j, task, &camera, &|_| {}, &|_| {}).unwrap();
     let layer = &image.layers[0];
     let (w, h) = camera.size();
     let mut cmp = Comparison::default();
@@ -220,7 +219,9 @@ fn directions_in_the_sun_view_frame_hold_the_exact_single_scattering_stokes_vect
     let j = job(&text);
     let task = &j.tasks[0];
     let sun = task.sun.direction;
-    let rows = atmosim::run::render::render_task(&j, task, &|_| {}).radiance;
+    let rows = atmosim::run::task::render_directions(&j, task, &|_| {})
+        .unwrap()
+        .radiance;
     let mut cmp = Comparison::default();
     for row in &rows {
         let d = row.direction.vector();

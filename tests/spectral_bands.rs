@@ -257,7 +257,7 @@ fn absolute_bands_average_the_source_weighted_radiance() {
 
 /// The fluxes rows of `job`'s first task, `[channel][albedo]`.
 fn task_fluxes(job: &atmosim::job::Job) -> Vec<Vec<atmosim::film::fluxes::Fluxes>> {
-    let result = atmosim::run::render::render_task(job, &job.tasks[0], &|_| {});
+    let result = atmosim::run::task::render_directions(job, &job.tasks[0], &|_| {}).unwrap();
     let na = job.render.albedos.len();
     result
         .fluxes

@@ -6,63 +6,22 @@
 //! `profile`, `rayleigh`, `ozone`, `aerosol`) or from explicit layers given
 //! as optical depths (the published plane-parallel benchmarks).
 
+pub mod layer_shape;
+pub mod optics;
 pub mod report;
 pub mod spectral_terms;
 
+use crate::atmosphere::layer_shape::LayerShape;
+use crate::atmosphere::optics::{ColumnOptics, Optics};
 use crate::atmosphere::spectral_terms::{Part, SpectralTerms, Spectrum};
 use crate::error::{Error, Result};
 use crate::physics::aerosol::Aerosol;
 use crate::physics::constants::{CM_PER_KM, VISIBILITY_WAVELENGTH_NM};
 use crate::physics::ozone::{CrossSection, OzoneModel};
-use crate::physics::profile::{GasProfile, exp_first_moment, exp_mean};
+use crate::physics::profile::GasProfile;
 use crate::physics::rayleigh::{self, RayleighModel};
 use crate::physics::visibility::{GroundExtinction, Visibility};
 use std::sync::Arc;
-
-/// Optical properties of one layer at one wavelength. Coefficients in km⁻¹.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct LayerOptics {
-    pub sigma_rayleigh: f64,
-    pub rayleigh_depolarization: f64,
-    /// Gas absorption (ozone).
-    pub sigma_absorption: f64,
-    pub sigma_aerosol_ext: f64,
-    pub sigma_aerosol_sca: f64,
-    /// Henyey–Greenstein asymmetry parameter of the aerosol.
-    pub aerosol_g: f64,
-}
-
-impl LayerOptics {
-    /// Total extinction coefficient σ_t (km⁻¹).
-    pub fn sigma_t(&self) -> f64 {
-        self.sigma_rayleigh + self.sigma_absorption + self.sigma_aerosol_ext
-    }
-
-    /// Total scattering coefficient σ_s (km⁻¹).
-    pub fn sigma_s(&self) -> f64 {
-        self.sigma_rayleigh + self.sigma_aerosol_sca
-    }
-}
-
-/// Column optical depths at one wavelength.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ColumnTotals {
-    pub tau_rayleigh: f64,
-    pub tau_absorption: f64,
-    pub tau_aerosol_ext: f64,
-    pub tau_aerosol_sca: f64,
-}
-
-impl ColumnTotals {
-    /// Column single-scattering albedo of the aerosol.
-    pub fn aerosol_ssa(&self) -> f64 {
-        if self.tau_aerosol_ext > 0.0 {
-            self.tau_aerosol_sca / self.tau_aerosol_ext
-        } else {
-            0.0
-        }
-    }
-}
 
 /// One explicit layer of a benchmark atmosphere (wavelength independent).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -150,7 +109,7 @@ pub struct Atmosphere {
     pub levels_km: Vec<f64>,
     pub wavelengths_nm: Vec<f64>,
     /// `optics[wavelength][layer]`.
-    pub optics: Vec<Vec<LayerOptics>>,
+    pub optics: Vec<Vec<Optics>>,
     /// Ground visibility at 550 nm, for profile atmospheres with aerosol.
     pub visibility: Option<Visibility>,
     /// Ozone column (DU) between the ground and the top, for profiles.
@@ -264,10 +223,10 @@ fn profile_terms(
 }
 
 /// The terms of explicit layers: constant responses.
-fn constant_terms(layers: &[LayerOptics]) -> SpectralTerms {
-    let column = |f: fn(&LayerOptics) -> f64| layers.iter().map(f).collect::<Vec<_>>();
+fn constant_terms(layers: &[Optics]) -> SpectralTerms {
+    let column = |f: fn(&Optics) -> f64| layers.iter().map(f).collect::<Vec<_>>();
     let mut terms = SpectralTerms::default();
-    terms.push_constant(column(LayerOptics::sigma_t), Part::Extinction);
+    terms.push_constant(column(Optics::sigma_t), Part::Extinction);
     terms.push_constant(column(|o| o.sigma_rayleigh), Part::Rayleigh);
     terms.push_constant(
         column(|o| o.rayleigh_depolarization * o.sigma_rayleigh),
@@ -276,62 +235,6 @@ fn constant_terms(layers: &[LayerOptics]) -> SpectralTerms {
     terms.push_constant(column(|o| o.sigma_aerosol_sca), Part::AerosolScattering);
     terms.push_constant(column(|o| o.aerosol_g * o.sigma_aerosol_sca), Part::GAerosolScattering);
     terms
-}
-
-/// The variation of the gas densities inside one layer, from the profile's
-/// levels: air density exponential (ratio top/bottom), ozone mixing ratio
-/// linear. The layer's mean coefficients are unchanged by it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LayerShape {
-    /// n_air(top) / n_air(bottom).
-    pub air_ratio: f64,
-    /// Ozone mixing ratio at the bottom and top of the layer.
-    pub o3_mixing: (f64, f64),
-}
-
-impl LayerShape {
-    /// Rayleigh coefficient at fraction `f` (0 bottom, 1 top) of the layer
-    /// relative to the layer mean: rᶠ / mean(rᶠ).
-    pub fn rayleigh_factor(&self, f: f64) -> f64 {
-        self.air_ratio.powf(f) / exp_mean(self.air_ratio)
-    }
-
-    /// Ozone coefficient at fraction `f` relative to the layer mean.
-    pub fn ozone_factor(&self, f: f64) -> f64 {
-        let (x0, x1) = self.o3_mixing;
-        let r = self.air_ratio;
-        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
-        if mean <= 0.0 {
-            return 1.0;
-        }
-        (x0 + (x1 - x0) * f) * r.powf(f) / mean
-    }
-
-    /// Upper bounds of the two factors over the layer.
-    pub fn max_factors(&self) -> (f64, f64) {
-        let (x0, x1) = self.o3_mixing;
-        let r = self.air_ratio;
-        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
-        let ozone = if mean > 0.0 {
-            x0.max(x1) * r.max(1.0) / mean
-        } else {
-            1.0
-        };
-        (r.max(1.0) / exp_mean(r), ozone)
-    }
-
-    /// Lower bounds of the two factors over the layer.
-    pub fn min_factors(&self) -> (f64, f64) {
-        let (x0, x1) = self.o3_mixing;
-        let r = self.air_ratio;
-        let mean = x0 * exp_mean(r) + (x1 - x0) * exp_first_moment(r);
-        let ozone = if mean > 0.0 {
-            x0.min(x1) * r.min(1.0) / mean
-        } else {
-            1.0
-        };
-        (r.min(1.0) / exp_mean(r), ozone)
-    }
 }
 
 impl Atmosphere {
@@ -400,10 +303,10 @@ impl Atmosphere {
                         let dz = profile.levels[i + 1].z_km - profile.levels[i].z_km;
                         // Columns are per cm², coefficients per km.
                         let per_km = 1.0 / dz;
-                        let mut o = LayerOptics {
+                        let mut o = Optics {
                             sigma_rayleigh: sigma_r * profile.air_column_cm2(i) * per_km,
                             rayleigh_depolarization: rho,
-                            ..LayerOptics::default()
+                            ..Optics::default()
                         };
                         if let Some(x) = &ozone {
                             let t = profile.layer_temperature_k(i);
@@ -469,11 +372,11 @@ impl Atmosphere {
             }
             levels_km.push(l.top_km);
         }
-        let per_layer: Vec<LayerOptics> = sorted
+        let per_layer: Vec<Optics> = sorted
             .iter()
             .map(|l| {
                 let dz = l.top_km - l.bottom_km;
-                LayerOptics {
+                Optics {
                     sigma_rayleigh: l.tau_rayleigh / dz,
                     rayleigh_depolarization: l.rayleigh_depolarization,
                     sigma_absorption: l.tau_absorption / dz,
@@ -510,8 +413,8 @@ impl Atmosphere {
     }
 
     /// Column optical depths at wavelength index `w`.
-    pub fn column(&self, w: usize) -> ColumnTotals {
-        let mut c = ColumnTotals::default();
+    pub fn column(&self, w: usize) -> ColumnOptics {
+        let mut c = ColumnOptics::default();
         for (i, o) in self.optics[w].iter().enumerate() {
             let dz = self.thickness_km(i);
             c.tau_rayleigh += o.sigma_rayleigh * dz;

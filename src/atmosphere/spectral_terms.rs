@@ -18,15 +18,15 @@
 
 use std::sync::Arc;
 
-use crate::atmosphere::LayerShape;
+use crate::atmosphere::layer_shape::LayerShape;
+use crate::atmosphere::optics::PointOptics;
 use crate::physics::aerosol::Component;
 use crate::physics::ozone::CrossSection;
 use crate::physics::rayleigh;
-use crate::transport::medium::PointCoefficients;
 
 /// A term's optics per unit amount at one wavelength (km⁻¹ per unit).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Response {
+pub struct TermOptics {
     /// Extinction.
     pub ext: f64,
     /// Rayleigh scattering.
@@ -39,8 +39,8 @@ pub struct Response {
     pub g_aerosol_sca: f64,
 }
 
-impl Response {
-    fn add_scaled(&mut self, r: &Response, k: f64) {
+impl TermOptics {
+    fn add_scaled(&mut self, r: &TermOptics, k: f64) {
         self.ext += k * r.ext;
         self.rayleigh += k * r.rayleigh;
         self.rho_rayleigh += k * r.rho_rayleigh;
@@ -49,9 +49,9 @@ impl Response {
     }
 
     /// The point coefficients these sums stand for.
-    pub fn coefficients(&self) -> PointCoefficients {
+    pub fn coefficients(&self) -> PointOptics {
         let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
-        PointCoefficients {
+        PointOptics {
             sigma_t: self.ext,
             sigma_rayleigh: self.rayleigh,
             sigma_aerosol_sca: self.aerosol_sca,
@@ -71,10 +71,10 @@ pub enum Part {
     GAerosolScattering,
 }
 
-impl Response {
+impl TermOptics {
     /// One unit of `part`, nothing else.
-    pub fn unit(part: Part) -> Response {
-        let mut r = Response::default();
+    pub fn unit(part: Part) -> TermOptics {
+        let mut r = TermOptics::default();
         *match part {
             Part::Extinction => &mut r.ext,
             Part::Rayleigh => &mut r.rayleigh,
@@ -90,7 +90,7 @@ impl Response {
 #[derive(Debug, Clone)]
 pub enum Spectrum {
     /// The same at every wavelength.
-    Constant(Response),
+    Constant(TermOptics),
     /// Air: Bodhaine's cross section (cm²) and depolarisation, for a CO₂
     /// mixing ratio.
     Air { co2_ratio: f64 },
@@ -112,30 +112,30 @@ impl Spectrum {
 
     /// The response at λ (nm); zero outside the data (the atmosphere checks
     /// every requested wavelength and band against the data's range).
-    pub fn response(&self, lambda_nm: f64) -> Response {
+    pub fn response(&self, lambda_nm: f64) -> TermOptics {
         match self {
             Spectrum::Constant(r) => *r,
             Spectrum::Air { co2_ratio } => {
                 let s = rayleigh::cross_section_cm2(lambda_nm, *co2_ratio);
-                Response {
+                TermOptics {
                     ext: s,
                     rayleigh: s,
                     rho_rayleigh: s * rayleigh::depolarization(lambda_nm, *co2_ratio),
-                    ..Response::default()
+                    ..TermOptics::default()
                 }
             }
-            Spectrum::Ozone { table, power } => Response {
+            Spectrum::Ozone { table, power } => TermOptics {
                 ext: table.coefficient_cm2(lambda_nm, *power).unwrap_or(0.0),
-                ..Response::default()
+                ..TermOptics::default()
             },
             Spectrum::Aerosol { component, rh } => match component.optics(lambda_nm, *rh) {
-                Some(o) => Response {
+                Some(o) => TermOptics {
                     ext: o.k_ext,
                     aerosol_sca: o.k_sca,
                     g_aerosol_sca: o.g * o.k_sca,
-                    ..Response::default()
+                    ..TermOptics::default()
                 },
-                None => Response::default(),
+                None => TermOptics::default(),
             },
         }
     }
@@ -149,7 +149,7 @@ pub struct Term {
 }
 
 /// How a term's amount varies inside a layer of the smooth medium
-/// (closed set; see `medium` and [`crate::atmosphere::LayerShape`]).
+/// (closed set; see `medium` and [`crate::atmosphere::layer_shape::LayerShape`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TermShape {
     /// Constant (aerosols, explicit layers).
@@ -216,25 +216,25 @@ impl SpectralTerms {
 
     /// Adds a wavelength-independent term: `amount` of one `part`.
     pub fn push_constant(&mut self, amount: Vec<f64>, part: Part) {
-        self.push(amount, Spectrum::Constant(Response::unit(part)));
+        self.push(amount, Spectrum::Constant(TermOptics::unit(part)));
     }
 
     /// Every term's response at λ, in term order, into `out`.
-    pub fn responses_into(&self, lambda_nm: f64, out: &mut [Response]) {
+    pub fn responses_into(&self, lambda_nm: f64, out: &mut [TermOptics]) {
         for (o, t) in out.iter_mut().zip(&self.terms) {
             *o = t.spectrum.response(lambda_nm);
         }
     }
 
     /// The summed responses of `layer` for one channel's `responses`.
-    pub fn layer_sum(&self, layer: usize, responses: &[Response]) -> Response {
+    pub fn layer_sum(&self, layer: usize, responses: &[TermOptics]) -> TermOptics {
         self.point_sum(layer, responses, |_| 1.0)
     }
 
     /// The summed responses at a point of `layer`, each term's amount times
     /// `factor(term index)` (its shape factor there).
-    pub fn point_sum(&self, layer: usize, responses: &[Response], factor: impl Fn(usize) -> f64) -> Response {
-        let mut sum = Response::default();
+    pub fn point_sum(&self, layer: usize, responses: &[TermOptics], factor: impl Fn(usize) -> f64) -> TermOptics {
+        let mut sum = TermOptics::default();
         for (k, (t, r)) in self.terms.iter().zip(responses).enumerate() {
             let a = t.amount[layer];
             if a != 0.0 {

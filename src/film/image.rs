@@ -326,6 +326,14 @@ fn render_pixel(
     true
 }
 
+/// A rendered image task.
+#[derive(Debug, Clone)]
+pub struct SkyImage {
+    pub width: usize,
+    pub height: usize,
+    pub layers: Vec<ImageLayer>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,4 +3,5 @@
 pub mod directions;
 pub mod fluxes;
 pub mod image;
+pub mod results;
 pub mod tally;

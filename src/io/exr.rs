@@ -16,7 +16,7 @@ use std::path::Path;
 use exr::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::io::output::write_atomic;
+use crate::io::atomic::write_atomic;
 
 /// A wavelength as an EXR layer label: `540nm`, or `337p5nm` (no dot,
 /// which would split the layer name).

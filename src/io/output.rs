@@ -2,15 +2,12 @@
 //! always through a temporary file renamed into place, so a crash never
 //! leaves a file that looks complete.
 
-use std::io::Write;
 use std::path::Path;
 
-use crate::error::{Error, Result};
-use crate::film::fluxes::Fluxes;
-use crate::film::tally::Tally;
+use crate::error::Result;
+use crate::film::results::{FluxRow, RadianceRow};
 use crate::io::exr::{Channel, wavelength_label, write_exr};
 use crate::job::transmittance::Grid;
-use crate::sensor::direction::Direction;
 use crate::transport::transmittance::Table as TransmittanceTable;
 
 /// Header of the radiance CSV of a `directions` sensor.
@@ -18,24 +15,6 @@ pub const RADIANCE_CSV_HEADER: &str =
     "wavelength_nm,albedo,view_zenith_deg,azimuth_deg,I,Q,U,V,I_se,Q_se,U_se,V_se,samples";
 /// Header of the flux CSV.
 pub const FLUX_CSV_HEADER: &str = "wavelength_nm,albedo,altitude_km,e_dir,e_down,e_up,e_down_se,e_up_se,samples";
-
-/// The radiance of one direction at one wavelength and albedo.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RadianceRow {
-    pub wavelength_nm: f64,
-    pub albedo: f64,
-    pub direction: Direction,
-    pub tally: Tally,
-}
-
-/// The fluxes at one wavelength and albedo.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FluxRow {
-    pub wavelength_nm: f64,
-    pub albedo: f64,
-    pub altitude_km: f64,
-    pub fluxes: Fluxes,
-}
 
 /// The radiance CSV text.
 pub fn radiance_csv(rows: &[RadianceRow]) -> String {
@@ -75,44 +54,6 @@ pub fn flux_csv(rows: &[FluxRow]) -> String {
         ));
     }
     s
-}
-
-/// Writes `contents` to `path` atomically: a temporary file in the same
-/// directory, flushed and synced, then renamed over `path`.
-pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<()> {
-    write_atomic_with(path, |w| w.write_all(contents))
-}
-
-/// [`write_atomic`] with the contents streamed by `write` (which must not
-/// buffer past its return: flush a buffered writer before returning).
-pub fn write_atomic_with(path: &Path, write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
-    let io = |e| Error::io(path, e);
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(io)?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp.{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        write(&mut f)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)?;
-        // Make the rename itself durable (best effort: not every file
-        // system lets a directory be synced).
-        if let Ok(d) = std::fs::File::open(dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io)
 }
 
 /// Header of the transmittance CSV (with `sqrt_T` appended when exported).
@@ -181,23 +122,4 @@ pub fn write_transmittance_exr(
         channels,
         attributes,
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn atomic_write_replaces_and_leaves_no_temporary() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("sub").join("a.csv");
-        write_atomic(&p, b"one").unwrap();
-        write_atomic(&p, b"two").unwrap();
-        assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        let names: Vec<_> = std::fs::read_dir(p.parent().unwrap())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "{names:?}");
-    }
 }

@@ -12,7 +12,7 @@ use std::io::BufWriter;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::io::output::write_atomic;
+use crate::io::atomic::write_atomic;
 
 fn lobe(lambda: f64, mu: f64, s1: f64, s2: f64) -> f64 {
     let t = (lambda - mu) / if lambda < mu { s1 } else { s2 };

@@ -25,7 +25,7 @@ use crate::job::Job;
 use std::io::Write;
 
 use crate::film::tally::Tally;
-use crate::io::output::write_atomic_with;
+use crate::io::atomic::write_atomic_with;
 use crate::run::shard::Shard;
 use crate::run::work_unit::UnitState;
 

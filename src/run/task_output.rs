@@ -10,10 +10,11 @@
 use std::path::Path;
 
 use crate::error::Result;
-use crate::io::output::{self, write_atomic};
+use crate::io::atomic::write_atomic;
+use crate::io::output::{self};
+use crate::io::sky_image;
 use crate::io::sun_table::{SUN_FILE, sun_csv};
 use crate::job::{Job, Sensor, Task};
-use crate::run::sky_image;
 use crate::run::work_unit::{self, Layout, UnitState};
 
 /// The metadata file of a task.

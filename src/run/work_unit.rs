@@ -22,12 +22,12 @@ use crate::film::image::{self, ActivePixels, ImageLayer, PixelSampling};
 use crate::sensor::camera::Camera;
 
 use crate::film::fluxes::{self, Fluxes};
+use crate::film::image::SkyImage;
+use crate::film::results::RenderResult;
+use crate::film::results::{FluxRow, RadianceRow};
 use crate::film::tally::{self, BLOCK, Tally};
-use crate::io::output::{FluxRow, RadianceRow};
 use crate::job::{Job, Sensor, Task};
-use crate::run::render::RenderResult;
 use crate::run::shard::Shard;
-use crate::run::sky_image::SkyImage;
 use crate::sampling::stream::{self, Channels, Render, StreamKey};
 use crate::transport::spectral::Scene;
 

@@ -8,10 +8,10 @@ use std::f64::consts::{FRAC_1_PI, PI};
 
 use glam::DVec3;
 
+use crate::atmosphere::optics::PointOptics;
 use crate::geometry::shell::Geometry;
 use crate::polarization::phase::{PhaseFunction, PhaseMixture, orthonormal_basis};
 use crate::polarization::stokes::StokesRotation;
-use crate::transport::medium::PointCoefficients;
 use crate::transport::tracking::Ray;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
@@ -49,7 +49,7 @@ pub(crate) fn reference_albedo(albedos: &[f64]) -> f64 {
 }
 
 /// The phase function of one component, picked with probability σ_i/σ_s.
-pub(crate) fn pick_component(c: &PointCoefficients, u: f64) -> PhaseFunction {
+pub(crate) fn pick_component(c: &PointOptics, u: f64) -> PhaseFunction {
     if u * c.sigma_s() < c.sigma_rayleigh {
         PhaseFunction::Rayleigh {
             depolarization: c.rayleigh_depolarization,
@@ -60,7 +60,7 @@ pub(crate) fn pick_component(c: &PointCoefficients, u: f64) -> PhaseFunction {
 }
 
 /// The σ_s-weighted mixture of a point's phase functions.
-pub(crate) fn phase_mixture(c: &PointCoefficients) -> PhaseMixture {
+pub(crate) fn phase_mixture(c: &PointOptics) -> PhaseMixture {
     let sigma_s = c.sigma_s();
     if sigma_s <= 0.0 {
         return PhaseMixture::new(0.0, 0.0, 0.0, 0.0);

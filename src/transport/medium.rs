@@ -18,31 +18,16 @@
 use crate::job::options::MediumModel;
 use glam::DVec3;
 
-use crate::atmosphere::{Atmosphere, LayerOptics, LayerShape};
+use crate::atmosphere::Atmosphere;
+use crate::atmosphere::layer_shape::LayerShape;
+use crate::atmosphere::optics::{Optics, PointOptics};
 use crate::geometry::shell::Geometry;
-
-/// Coefficients (km⁻¹) at a point.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PointCoefficients {
-    pub sigma_t: f64,
-    pub sigma_rayleigh: f64,
-    pub sigma_aerosol_sca: f64,
-    pub rayleigh_depolarization: f64,
-    pub aerosol_g: f64,
-}
-
-impl PointCoefficients {
-    /// Scattering coefficient σ_s.
-    pub fn sigma_s(&self) -> f64 {
-        self.sigma_rayleigh + self.sigma_aerosol_sca
-    }
-}
 
 /// The medium at one wavelength.
 #[derive(Debug, Clone)]
 pub struct Medium {
     levels_km: Vec<f64>,
-    layers: Vec<LayerOptics>,
+    layers: Vec<Optics>,
     shapes: Option<Vec<LayerShape>>,
     sigma_maj: Vec<f64>,
     /// σ_t of each layer (its mean for `smooth`).
@@ -90,7 +75,7 @@ impl Medium {
             .collect();
         Medium::assemble(
             atm.levels_km.clone(),
-            layers.iter().map(LayerOptics::sigma_t).collect(),
+            layers.iter().map(Optics::sigma_t).collect(),
             layers,
             shapes,
             sigma_maj,
@@ -101,7 +86,7 @@ impl Medium {
     fn assemble(
         levels_km: Vec<f64>,
         sigma_t_layer: Vec<f64>,
-        layers: Vec<LayerOptics>,
+        layers: Vec<Optics>,
         shapes: Option<Vec<LayerShape>>,
         sigma_maj: Vec<f64>,
     ) -> Medium {
@@ -180,7 +165,7 @@ impl Medium {
 
     /// Coefficients in layer `i` at altitude `z_km`.
     #[inline]
-    pub fn at(&self, i: usize, z_km: f64) -> PointCoefficients {
+    pub fn at(&self, i: usize, z_km: f64) -> PointOptics {
         self.at_altitude_of(i, || z_km)
     }
 
@@ -188,7 +173,7 @@ impl Medium {
     /// `smooth` medium (a layered one is constant in the layer; the
     /// altitude of a point in spherical shells costs a square root).
     #[inline]
-    pub fn at_altitude_of(&self, i: usize, z_km: impl FnOnce() -> f64) -> PointCoefficients {
+    pub fn at_altitude_of(&self, i: usize, z_km: impl FnOnce() -> f64) -> PointOptics {
         let o = &self.layers[i];
         let (fr, fo) = match &self.shapes {
             None => (1.0, 1.0),
@@ -198,7 +183,7 @@ impl Medium {
             }
         };
         let sigma_rayleigh = o.sigma_rayleigh * fr;
-        PointCoefficients {
+        PointOptics {
             sigma_t: sigma_rayleigh + o.sigma_absorption * fo + o.sigma_aerosol_ext,
             sigma_rayleigh,
             sigma_aerosol_sca: o.sigma_aerosol_sca,

@@ -87,8 +87,9 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use crate::atmosphere::LayerShape;
-use crate::atmosphere::spectral_terms::{Response, SpectralTerms, TermShape};
+use crate::atmosphere::layer_shape::LayerShape;
+use crate::atmosphere::optics::PointOptics;
+use crate::atmosphere::spectral_terms::{SpectralTerms, TermOptics, TermShape};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
 use crate::job::options::{MAX_ALBEDOS, Settings, SunTransmittance};
@@ -102,7 +103,7 @@ use crate::transport::integrator::{
     INV_4PI, ROULETTE_THRESHOLD, SUN_AWARE_SHARE, cosine_hemisphere, phase_mixture, pick_component, quarter_turn,
     reference_albedo, reflects, scattering_frame, sun_ray,
 };
-use crate::transport::medium::{PointCoefficients, density_steps, shape_integrals};
+use crate::transport::medium::{density_steps, shape_integrals};
 use crate::transport::sun_depth::SunDepth;
 use crate::transport::tracking::{self, FlightEnd, Ray, Segment, ShellExit, WalkEnd};
 
@@ -115,7 +116,7 @@ pub const DIRECT_CELL_NM: f64 = 0.05;
 /// wavelength, or 1 without a source spectrum).
 #[derive(Debug, Clone, Default)]
 struct ChannelSpectra {
-    responses: Vec<Response>,
+    responses: Vec<TermOptics>,
     weights: Vec<f64>,
     source: Vec<f64>,
     /// Where every path shares them (monochromatic channels): each
@@ -123,7 +124,7 @@ struct ChannelSpectra {
     /// the smooth medium) and, in the layered medium, its coefficients per
     /// layer likewise; empty otherwise.
     sigma: Vec<f64>,
-    coefficients: Vec<PointCoefficients>,
+    coefficients: Vec<PointOptics>,
 }
 
 /// The basis optical depths are computed on.
@@ -277,7 +278,7 @@ struct SunFollow {
     depth: SunDepth,
     channels: Vec<usize>,
     /// Their coefficients per layer (`[layer·K + k]`).
-    coefficients: Vec<PointCoefficients>,
+    coefficients: Vec<PointOptics>,
 }
 
 /// A thread's reusable state: the path, the spare the path's first vertex
@@ -416,7 +417,7 @@ impl Scene {
         let n = channels.len();
         let banded = channels.iter().any(|c| c.band_width_nm > 0.0);
         let t = terms.terms.len();
-        let mut centre = vec![Response::default(); n * t];
+        let mut centre = vec![TermOptics::default(); n * t];
         for (w, c) in channels.iter().enumerate() {
             terms.responses_into(c.lambda_nm, &mut centre[w * t..(w + 1) * t]);
         }
@@ -514,14 +515,14 @@ impl Scene {
         // Each channel's coefficients per layer at its centre wavelength,
         // and its column extinction.
         let t = self.terms.terms.len();
-        let mut responses = vec![Response::default(); t];
-        let mut centre: Vec<(f64, usize, Vec<PointCoefficients>)> = self
+        let mut responses = vec![TermOptics::default(); t];
+        let mut centre: Vec<(f64, usize, Vec<PointOptics>)> = self
             .channels
             .iter()
             .enumerate()
             .map(|(w, c)| {
                 self.terms.responses_into(c.lambda_nm, &mut responses);
-                let coeffs: Vec<PointCoefficients> = (0..layers)
+                let coeffs: Vec<PointOptics> = (0..layers)
                     .map(|l| self.terms.layer_sum(l, &responses).coefficients())
                     .collect();
                 let column = coeffs
@@ -536,7 +537,7 @@ impl Scene {
         let n = centre.len();
         let mut picks = vec![0, n - 1];
         picks.dedup();
-        let followed: Vec<&(f64, usize, Vec<PointCoefficients>)> = picks.iter().map(|&i| &centre[i]).collect();
+        let followed: Vec<&(f64, usize, Vec<PointOptics>)> = picks.iter().map(|&i| &centre[i]).collect();
         let k = followed.len();
         let sigmas: Vec<Vec<f64>> = followed
             .iter()
@@ -600,7 +601,7 @@ impl Scene {
     /// over the estimate's samples, one dimension per channel).
     fn draw_spectra(&self, spectra: &mut ChannelSpectra, sampler: &Sampler) {
         let t = self.terms.terms.len();
-        spectra.responses.resize(self.channels.len() * t, Response::default());
+        spectra.responses.resize(self.channels.len() * t, TermOptics::default());
         let lambda = |w: usize| self.channels[w].wavelength(sampler.stratified(w as u64));
         for w in 0..self.channels.len() {
             self.terms
@@ -717,7 +718,7 @@ impl Scene {
     /// The extinction responses of every term at the midpoints of channel
     /// `w`'s cells (`[cell·terms + term]`), for [`Scene::band_average_of`].
     pub fn band_cells(&self, w: usize) -> Vec<f64> {
-        let mut responses = vec![Response::default(); self.terms.terms.len()];
+        let mut responses = vec![TermOptics::default(); self.terms.terms.len()];
         let mut out = Vec::new();
         for lambda in self.cell_wavelengths(w) {
             self.terms.responses_into(lambda, &mut responses);
@@ -812,7 +813,7 @@ impl Scene {
 
     /// The coefficients of channel `w` at fraction `f` of `layer` (see
     /// [`Scene::fraction`]).
-    fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointCoefficients {
+    fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointOptics {
         if let Some(c) = spectra.coefficients.get(w * (self.levels_km.len() - 1) + layer) {
             return *c;
         }

@@ -217,5 +217,5 @@ pub fn write_report(dir: &Path, results: &[CaseResult]) -> Result<()> {
     for r in results {
         plot::write_ratio_plot(&dir.join(format!("{}.png", r.case.name)), r)?;
     }
-    crate::io::output::write_atomic(&dir.join("report.md"), report_markdown(results).as_bytes())
+    crate::io::atomic::write_atomic(&dir.join("report.md"), report_markdown(results).as_bytes())
 }

@@ -6,56 +6,16 @@
 use std::path::Path;
 
 use crate::error::Result;
-use crate::film::image::ImageLayer;
+use crate::film::image::{ImageLayer, SkyImage};
+use crate::io::atomic::write_atomic;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
-use crate::io::output::write_atomic;
 use crate::io::preview::{srgb_preview, write_png};
 use crate::io::sun_table::{SUN_FILE, sun_csv};
 use crate::job::{AtmosphereSource, Job, Task, Units};
-use crate::run::shard::Shard;
-use crate::run::work_unit::{self, Control, Layout};
 use crate::sensor::camera::{Camera, PixelFilter};
 
 /// The file an image task writes its Stokes images to.
 pub const IMAGE_FILE: &str = "image.exr";
-
-/// A rendered image task.
-#[derive(Debug, Clone)]
-pub struct SkyImage {
-    pub width: usize,
-    pub height: usize,
-    pub layers: Vec<ImageLayer>,
-}
-
-/// Renders every layer of `task` with `camera` in one go (see
-/// [`crate::run::work_unit`] for runs that checkpoint); `progress(n)` is called with
-/// the paths traced, `log` once at the end.
-pub fn render(
-    job: &Job,
-    task: &Task,
-    camera: &Camera,
-    progress: &(dyn Fn(u64) + Sync),
-    log: &dyn Fn(&str),
-) -> SkyImage {
-    let start = std::time::Instant::now();
-    let shared = job.spectral_scene(task);
-    let layout = Layout::new(job, task, shared.is_some());
-    let mut state = layout.empty_state(job, task, Shard::WHOLE);
-    let control = Control::none(progress);
-    // Without a stop flag or checkpoints a run always completes.
-    let _ = work_unit::run(job, task, &layout, shared, &mut state, &control);
-    let paths = layout.paths(Shard::WHOLE);
-    let secs = start.elapsed().as_secs_f64();
-    log(&format!(
-        "{}: {} wavelengths × {} albedos{}: {paths} paths in {secs:.1} s ({:.0} paths/s)",
-        task.name,
-        job.wavelengths_nm.len(),
-        job.render.albedos.len(),
-        if layout.shared { " along shared paths" } else { "" },
-        paths as f64 / secs
-    ));
-    work_unit::image_result(job, camera, &layout, &state)
-}
 
 /// The EXR layer name of a wavelength and albedo: `540nm_a030`.
 pub fn layer_name(wavelength_nm: f64, albedo: f64) -> String {
