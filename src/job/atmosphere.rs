@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::Ctx;
+use super::context::Ctx;
 use super::raw::{RawAerosolLayer, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
 use crate::atmosphere::{AerosolLayer, BuildError, ExplicitLayer, ProfileSpec};
 use crate::error::{Error, Result};

@@ -7,8 +7,6 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use serde::Deserialize;
-
 use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
 use crate::geometry::shell::Geometry;
@@ -19,6 +17,7 @@ use crate::physics::ozone::OzoneModel;
 use crate::physics::rayleigh::RayleighModel;
 use crate::physics::solar::SolarSpectrum;
 use atmosphere::{build_error, resolve_layers, resolve_profile_spec};
+use context::Ctx;
 use raw::RawJob;
 use spectrum::{band_error, band_widths};
 
@@ -30,6 +29,7 @@ pub const DEFAULT_TOP_KM: f64 = 100.0;
 pub const DEFAULT_WAVELENGTHS_NM: [f64; 3] = [420.0, 540.0, 620.0];
 
 mod atmosphere;
+mod context;
 pub mod input;
 pub mod options;
 mod raw;
@@ -37,21 +37,10 @@ mod render;
 pub mod spectrum;
 pub mod transmittance;
 
+pub use raw::GeometryKind;
 pub use render::{RenderSpec, Sensor, Units};
 
 // Resolved job
-
-/// Planet geometry (closed set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum GeometryKind {
-    Spherical,
-    PlaneParallel,
-    /// Plane-parallel transport with the direct solar beam attenuated along
-    /// its path through spherical shells (DISORT's and uvspec's
-    /// `pseudospherical`): reproduces those runs, not the real sky.
-    PseudoSpherical,
-}
 
 /// The planet: radius, top of the atmosphere and geometry.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,35 +118,6 @@ fn task_name(visibility_km: Option<f64>, atmosphere: &Atmosphere, sun_zenith_deg
         90.0 - sun_zenith_deg,
         altitude_km * 1000.0
     )
-}
-
-/// Validation context: the file name for every error.
-pub(super) struct Ctx<'a> {
-    pub(super) file: &'a str,
-}
-
-impl Ctx<'_> {
-    pub(super) fn invalid(&self, key: &str, value: impl std::fmt::Display, reason: &str, valid: &str) -> Error {
-        Error::InvalidValue {
-            file: self.file.to_string(),
-            key: key.to_string(),
-            value: value.to_string(),
-            reason: reason.to_string(),
-            valid: valid.to_string(),
-        }
-    }
-
-    /// A finite number within [lo, hi] (inclusive by the flags).
-    pub(super) fn range(&self, key: &str, v: f64, lo: f64, hi: f64, lo_open: bool, valid: &str) -> Result<f64> {
-        let ok = v.is_finite() && (if lo_open { v > lo } else { v >= lo }) && v <= hi;
-        if ok {
-            Ok(v)
-        } else if !v.is_finite() {
-            Err(self.invalid(key, v, "not a finite number", valid))
-        } else {
-            Err(self.invalid(key, v, "out of range", valid))
-        }
-    }
 }
 
 impl Job {

@@ -5,8 +5,6 @@ use std::path::PathBuf;
 
 use serde::Deserialize;
 
-use super::GeometryKind;
-
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawJob {
@@ -157,6 +155,18 @@ pub(super) enum RawPixelFilter {
 pub(super) enum RawStokesFrame {
     Meridian,
     SunView,
+}
+
+/// Planet geometry (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GeometryKind {
+    Spherical,
+    PlaneParallel,
+    /// Plane-parallel transport with the direct solar beam attenuated along
+    /// its path through spherical shells (DISORT's and uvspec's
+    /// `pseudospherical`): reproduces those runs, not the real sky.
+    PseudoSpherical,
 }
 
 /// `resolution = 256` or `resolution = [512, 256]`.

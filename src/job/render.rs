@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use super::Ctx;
+use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
     RawSensor, RawSensorKind, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,

@@ -1,6 +1,6 @@
 //! The job's channels: wavelengths, and bands around them.
 
-use super::Ctx;
+use super::context::Ctx;
 use super::raw::OneOrMany;
 use crate::atmosphere::BuildError;
 use crate::error::{Error, Result};

@@ -1,6 +1,6 @@
 //! Resolving the `[transmittance]` section.
 
-use super::Ctx;
+use super::context::Ctx;
 use super::raw::{RawEstimator, RawTransmittance};
 use crate::error::Result;
 

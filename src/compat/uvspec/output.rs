@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::UvspecInput;
+use super::input::{DEFAULT_FLUX_COLUMNS, FLUX_COLUMNS, UvspecInput};
 use crate::film::directions::render_directions_all;
 use crate::film::fluxes::{Fluxes, render_fluxes_all};
 use crate::film::tally::{Tally, tally};
@@ -168,13 +168,13 @@ fn flux_value(col: &str, r: &UvspecResult, z: &ZoutResult) -> f64 {
 
 /// uvspec-style text output.
 pub fn format_uvspec(input: &UvspecInput, r: &UvspecResult) -> String {
-    let default: Vec<String> = super::DEFAULT_FLUX_COLUMNS.iter().map(|c| c.to_string()).collect();
+    let default: Vec<String> = DEFAULT_FLUX_COLUMNS.iter().map(|c| c.to_string()).collect();
     let columns: Vec<&String> = input
         .output_user
         .as_ref()
         .unwrap_or(&default)
         .iter()
-        .filter(|c| super::FLUX_COLUMNS.contains(&c.as_str()))
+        .filter(|c| FLUX_COLUMNS.contains(&c.as_str()))
         .collect();
     let components = if r.polarized { 4 } else { 1 };
     let mut s = String::new();

@@ -1,4 +1,5 @@
 use super::*;
+use crate::error::{Error, Result};
 
 fn no_files(name: &str) -> std::io::Result<String> {
     Err(std::io::Error::new(std::io::ErrorKind::NotFound, name.to_string()))

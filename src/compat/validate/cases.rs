@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use super::{Case, Value};
+use super::case::Case;
+use super::stats::Value;
 use crate::error::Result;
 use crate::film::directions::render_directions;
 use crate::film::tally::Tally;

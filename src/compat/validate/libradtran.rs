@@ -13,8 +13,9 @@
 //! (full spherical geometry differs from it by several per cent near the
 //! horizon, where the line of sight's air mass differs).
 
+use super::case::Case;
 use super::cases::push;
-use super::{Case, Value};
+use super::stats::Value;
 use crate::compat::uvspec::UvspecInput;
 use crate::error::{Error, Result};
 use crate::film::directions::render_directions_all;

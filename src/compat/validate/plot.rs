@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use super::CaseResult;
+use super::case::CaseResult;
 use crate::error::Result;
 use crate::io::preview::write_png;
 
