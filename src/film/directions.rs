@@ -4,7 +4,7 @@
 use crate::film::tally::{Tally, tally};
 use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::direction::Direction;
-use crate::transport::spectral::Scene;
+use crate::transport::tracer::Scene;
 
 /// Renders each direction with `samples` paths for every channel and
 /// albedo of the scene: `[channel][albedo][direction]`. `seed` and

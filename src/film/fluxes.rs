@@ -10,7 +10,7 @@ use crate::film::tally::{Tally, tally};
 use crate::polarization::stokes::{Stokes, meridian_frame};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::stream::{Estimate, Render, StreamKey};
-use crate::transport::spectral::Scene;
+use crate::transport::tracer::Scene;
 
 /// Fluxes at the observer level per unit E0 (libRadtran's edir, edn, eup).
 #[derive(Debug, Clone, Copy, PartialEq)]

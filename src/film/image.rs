@@ -18,7 +18,7 @@ use crate::polarization::stokes_frame::{StokesFrame, carry};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::camera::{Camera, PixelFilter};
-use crate::transport::spectral::Scene;
+use crate::transport::tracer::Scene;
 
 /// One image layer: a wavelength and an albedo, mean and standard error of
 /// I, Q, U, V per pixel (row-major, row 0 at the top).

@@ -29,7 +29,7 @@ use crate::film::tally::{self, BLOCK, Tally};
 use crate::job::{Job, Sensor, Task};
 use crate::run::shard::Shard;
 use crate::sampling::stream::{self, Channels, Render, StreamKey};
-use crate::transport::spectral::Scene;
+use crate::transport::tracer::Scene;
 
 /// What an estimate measures.
 #[derive(Debug, Clone, Copy, PartialEq)]

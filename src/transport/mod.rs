@@ -4,7 +4,7 @@ pub mod flight_density;
 pub mod integrator;
 pub mod medium;
 pub mod scene_build;
-pub mod spectral;
 pub mod sun_depth;
+pub mod tracer;
 pub mod tracking;
 pub mod transmittance;

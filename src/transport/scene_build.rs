@@ -5,7 +5,7 @@
 use crate::job::options::MediumModel;
 use crate::job::spectrum::Channel;
 use crate::job::{Job, Task};
-use crate::transport::spectral::{MediumSettings, Scene};
+use crate::transport::tracer::{MediumSettings, Scene};
 
 impl Job {
     /// The shared-spectral-path scene of a task: all channels at once, when

@@ -40,7 +40,7 @@ use rayon::prelude::*;
 use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
 use crate::transport::medium::Medium;
-use crate::transport::spectral::Scene;
+use crate::transport::tracer::Scene;
 use crate::transport::tracking::{self, Ray};
 
 /// The line of sight from the observer to a grid point.

@@ -1,0 +1,276 @@
+//! A scene: everything a path needs (the atmosphere's levels and terms, the
+//! channels, the sun, the ground's albedos, the transport's settings), and
+//! how one is made.
+
+use super::channel_optics::{Basis, ChannelSpectra};
+use super::path::SunFollow;
+use crate::job::spectrum::Channel;
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::atmosphere::layer_shape::LayerShape;
+use crate::atmosphere::optics::PointOptics;
+use crate::atmosphere::spectral_terms::{SpectralTerms, TermOptics, TermShape};
+use crate::geometry::shell::Geometry;
+use crate::geometry::sun::Sun;
+use crate::job::options::{MAX_ALBEDOS, Settings};
+use crate::physics::solar::SolarSpectrum;
+use crate::transport::integrator::reflects;
+use crate::transport::medium::density_steps;
+use crate::transport::sun_depth::SunDepth;
+
+/// The widest wavelength cell of the direct irradiance's band average (nm).
+pub const DIRECT_CELL_NM: f64 = 0.05;
+
+/// Everything a path needs: the atmosphere, its channels, the sun, the
+/// ground and the transport's settings.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    pub geometry: Geometry,
+    pub sun: Sun,
+    /// Ground albedos, all estimated from the same paths (at most
+    /// [`MAX_ALBEDOS`]): a path with k ground reflections scores a^k times
+    /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly. Flights
+    /// toward the ground are forced only when no albedo reflects, so an
+    /// albedo 0 in a list with reflecting ones is noisier than alone
+    /// (README, "albedo").
+    pub albedos: Vec<f64>,
+    pub settings: Settings,
+    pub(super) levels_km: Vec<f64>,
+    pub(super) terms: SpectralTerms,
+    pub(super) channels: Vec<Channel>,
+    pub(super) basis: Basis,
+    /// The number of basis vectors.
+    pub(super) basis_len: usize,
+    /// σ of each basis vector per layer (`[layer·basis + b]`).
+    pub(super) basis_sigma: Vec<f64>,
+    /// Its steps per level (`[b·levels + level]`, see `Medium::steps`).
+    pub(super) basis_steps: Vec<f64>,
+    /// The spectra of monochromatic channels (all paths share them); for
+    /// bands, each path has its own.
+    pub(super) fixed: Option<ChannelSpectra>,
+    /// The extraterrestrial irradiance radiances are weighted by (absolute
+    /// units); `None`: per unit E0.
+    pub(super) source: Option<Arc<SolarSpectrum>>,
+    /// Sun-aware connections along every flight (`None`: connections at
+    /// collisions).
+    pub(super) sun_follow: Option<SunFollow>,
+    /// The smooth medium's shape of each layer (`None`: layered, σ constant
+    /// in each layer).
+    pub(super) shapes: Option<Vec<LayerShape>>,
+    /// How each term, and each basis vector, varies inside a smooth layer.
+    pub(super) term_shapes: Vec<TermShape>,
+    pub(super) basis_shapes: Vec<TermShape>,
+    /// Majorants are this times a bound on σ_t over each layer (1 and the
+    /// layered medium: σ_t itself, every tentative collision real).
+    pub(super) majorant_scale: f64,
+    /// Pseudo-spherical geometry (a plane-parallel scene): the direct beam
+    /// reaching a point at altitude z is attenuated along its path through
+    /// spherical shells of this planet radius (km), as DISORT's
+    /// pseudo-spherical mode does; everything else stays plane-parallel.
+    pub(super) pseudo_spherical_radius_km: Option<f64>,
+}
+
+/// How the medium between a scene's levels is modelled and tracked.
+#[derive(Debug, Clone, Default)]
+pub struct MediumSettings {
+    /// The smooth medium's shape of each layer (`None`: layered).
+    pub shapes: Option<Vec<LayerShape>>,
+    /// Majorants over a bound on σ_t (≥ 1).
+    pub majorant_scale: f64,
+    /// Pseudo-spherical geometry's planet radius (km), in a plane-parallel
+    /// scene.
+    pub pseudo_spherical_radius_km: Option<f64>,
+}
+
+impl Scene {
+    /// A scene of `channels` over an atmosphere's levels and terms.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        geometry: Geometry,
+        levels_km: Vec<f64>,
+        terms: SpectralTerms,
+        channels: Vec<Channel>,
+        sun: Sun,
+        albedos: Vec<f64>,
+        settings: Settings,
+        medium: MediumSettings,
+    ) -> Scene {
+        let layers = levels_km.len() - 1;
+        let n = channels.len();
+        let banded = channels.iter().any(|c| c.band_width_nm > 0.0);
+        let t = terms.terms.len();
+        let mut centre = vec![TermOptics::default(); n * t];
+        for (w, c) in channels.iter().enumerate() {
+            terms.responses_into(c.lambda_nm, &mut centre[w * t..(w + 1) * t]);
+        }
+        let ext_terms: Vec<usize> = (0..t).filter(|&k| terms.terms[k].spectrum.has_extinction()).collect();
+        // The channels' own profiles only where σ is constant per layer.
+        let basis = if !banded && ext_terms.len() > n && medium.shapes.is_none() {
+            Basis::Channels
+        } else {
+            Basis::Terms(ext_terms)
+        };
+        // Each basis vector's σ per layer.
+        let profiles: Vec<Vec<f64>> = match &basis {
+            Basis::Terms(k) => k.iter().map(|&k| terms.terms[k].amount.clone()).collect(),
+            Basis::Channels => (0..n)
+                .map(|w| {
+                    (0..layers)
+                        .map(|l| terms.layer_sum(l, &centre[w * t..(w + 1) * t]).ext)
+                        .collect()
+                })
+                .collect(),
+        };
+        let b = profiles.len();
+        let term_shapes: Vec<TermShape> = terms.terms.iter().map(|t| t.shape()).collect();
+        let basis_shapes = match &basis {
+            Basis::Terms(k) => k.iter().map(|&k| term_shapes[k]).collect(),
+            Basis::Channels => vec![TermShape::Flat; b],
+        };
+        let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
+        let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
+        let mut scene = Scene {
+            geometry,
+            sun,
+            albedos,
+            settings,
+            levels_km,
+            terms,
+            channels,
+            basis,
+            basis_len: b,
+            basis_sigma,
+            basis_steps,
+            fixed: None,
+            source: None,
+            sun_follow: None,
+            shapes: medium.shapes,
+            term_shapes,
+            basis_shapes,
+            majorant_scale: medium.majorant_scale.max(1.0),
+            pseudo_spherical_radius_km: medium.pseudo_spherical_radius_km,
+        };
+        if !banded {
+            let mut fixed = ChannelSpectra {
+                responses: centre,
+                weights: vec![0.0; n * b],
+                source: Vec::new(),
+                sigma: Vec::new(),
+                coefficients: Vec::new(),
+            };
+            scene.refresh_weights(&mut fixed);
+            let layers = scene.levels_km.len() - 1;
+            fixed.sigma = (0..n * layers)
+                .map(|i| scene.sigma_t(&fixed, i % layers, i / layers))
+                .collect();
+            if scene.shapes.is_none() {
+                let layers = scene.levels_km.len() - 1;
+                fixed.coefficients = (0..n * layers)
+                    .map(|i| scene.coefficients(&fixed, i % layers, i / layers, 0.0))
+                    .collect();
+            }
+            scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
+            scene.fixed = Some(fixed);
+        }
+        scene
+    }
+
+    /// The scene with radiances weighted by `source` at each path's
+    /// wavelengths: absolute units, band averages of E0(λ)·L(λ). Every
+    /// channel's wavelengths must lie inside the spectrum (the job checks
+    /// it); outside, the source counts as 0.
+    pub fn with_source(mut self, source: Arc<SolarSpectrum>) -> Scene {
+        self.source = Some(source);
+        if let Some(mut fixed) = self.fixed.take() {
+            self.refresh_source(&mut fixed, |w| self.channels[w].lambda_nm);
+            self.fixed = Some(fixed);
+        }
+        self
+    }
+
+    /// The scene with sun-aware connections: at every flight, one point
+    /// drawn along it from a density that follows the sunlit single
+    /// scattering of the channels ([`Scene::sun_along_flight`])
+    /// instead of the connection at the collision.
+    pub fn with_sun_aware(mut self) -> Scene {
+        let layers = self.levels_km.len() - 1;
+        // Each channel's coefficients per layer at its centre wavelength,
+        // and its column extinction.
+        let t = self.terms.terms.len();
+        let mut responses = vec![TermOptics::default(); t];
+        let mut centre: Vec<(f64, usize, Vec<PointOptics>)> = self
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(w, c)| {
+                self.terms.responses_into(c.lambda_nm, &mut responses);
+                let coeffs: Vec<PointOptics> = (0..layers)
+                    .map(|l| self.terms.layer_sum(l, &responses).coefficients())
+                    .collect();
+                let column = coeffs
+                    .iter()
+                    .enumerate()
+                    .map(|(l, c)| c.sigma_t * (self.levels_km[l + 1] - self.levels_km[l]))
+                    .sum::<f64>();
+                (column, w, coeffs)
+            })
+            .collect();
+        centre.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n = centre.len();
+        let mut picks = vec![0, n - 1];
+        picks.dedup();
+        let followed: Vec<&(f64, usize, Vec<PointOptics>)> = picks.iter().map(|&i| &centre[i]).collect();
+        let k = followed.len();
+        let sigmas: Vec<Vec<f64>> = followed
+            .iter()
+            .map(|f| f.2.iter().map(|c| c.sigma_t).collect())
+            .collect();
+        let depth = SunDepth::of_profiles(
+            &self.levels_km,
+            &sigmas,
+            &self.geometry,
+            self.sun.direction,
+            self.pseudo_spherical_radius_km.is_some(),
+        );
+        let mut coefficients = Vec::with_capacity(layers * k);
+        for l in 0..layers {
+            coefficients.extend(followed.iter().map(|f| f.2[l]));
+        }
+        self.sun_follow = Some(SunFollow {
+            depth,
+            channels: followed.iter().map(|f| f.1).collect(),
+            coefficients,
+        });
+        self
+    }
+
+    /// The atmosphere's levels (km).
+    pub fn levels_km(&self) -> &[f64] {
+        &self.levels_km
+    }
+
+    /// The number of channels.
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// The number of values a sample gives: channels × albedos.
+    pub fn value_count(&self) -> usize {
+        self.channels.len() * self.albedos.len().min(MAX_ALBEDOS)
+    }
+
+    /// Position of an observer at `altitude_km` (on the z axis).
+    pub fn observer_position(&self, altitude_km: f64) -> DVec3 {
+        self.geometry.observer_position(altitude_km)
+    }
+
+    pub(super) fn reflects(&self) -> bool {
+        reflects(&self.albedos)
+    }
+
+    pub(super) fn order_done(&self, order: u32) -> bool {
+        self.settings.order_done(order)
+    }
+}

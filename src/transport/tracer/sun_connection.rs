@@ -1,0 +1,269 @@
+//! Next-event estimation toward the sun: at a vertex, at K stratified points
+//! of a flight, or at one point of the sun-aware density; shadow rays'
+//! transmittance for every channel.
+
+use super::channel_optics::ChannelSpectra;
+use super::path::{PIECE_SEGMENTS, Path};
+use super::scene::Scene;
+
+use glam::DVec3;
+
+use crate::geometry::shell::Geometry;
+use crate::job::options::SunTransmittance;
+use crate::polarization::phase::PhaseFunction;
+use crate::polarization::stokes::Stokes;
+use crate::sampling::sampler::Sampler;
+use crate::transport::integrator::{INV_4PI, SUN_AWARE_SHARE, phase_mixture, scattering_frame, sun_ray};
+use crate::transport::tracking::{self, FlightEnd, Ray, Segment};
+
+impl Scene {
+    /// A sun connection from the point at distance `t` in segment `i` of
+    /// the flight (`path.segments`), drawn with density `q` (the same for
+    /// every channel, so the path's spectral MIS weight applies to it
+    /// unchanged): channel w scores e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q.
+    pub(super) fn sun_at_point(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        (i, t): (usize, f64),
+        q: f64,
+        sampler: &mut Sampler,
+    ) {
+        let b = self.basis_len;
+        let seg = path.segments[i];
+        // Every channel's depth along the flight to the point.
+        path.point_basis.clear();
+        path.point_basis
+            .extend_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
+        self.accumulate(&mut path.point_basis, seg.layer, (t - seg.t0).max(0.0));
+        Self::combine(spectra, &path.point_basis, &mut path.tau_hit);
+        path.mixtures.clear();
+        path.factors.clear();
+        for w in 0..self.channels.len() {
+            let c = self.coefficients(spectra, seg.layer, w, 0.0);
+            path.mixtures.push(phase_mixture(&c));
+            path.factors.push((-path.tau_hit[w]).exp() / q * c.sigma_s());
+        }
+        self.sun_from(
+            path,
+            spectra,
+            ray.origin + t * ray.dir,
+            seg.layer,
+            -ray.dir,
+            sampler,
+            true,
+        );
+    }
+
+    /// Stratified sun connections along a forced flight
+    /// ([`Settings::sun_samples_per_flight`] = K points): point k at the
+    /// hero's forced distance for the variate (k + u_k)/K, connected with
+    /// 1/K of its weight (`sun_at_point`, density K·σ_t,h·e^(−τ_h)/(1 −
+    /// e^(−τ_h,end)) at the point). The path goes on from its own
+    /// collision. Returns false (nothing done) for an endless flight.
+    pub(super) fn sun_stratified(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        sampler: &mut Sampler,
+    ) -> bool {
+        if !self.flight_segments(path, ray) {
+            return false;
+        }
+        let hero = path.hero;
+        let p = -(-path.ray.tau[hero]).exp_m1();
+        if p <= 0.0 {
+            return true;
+        }
+        let k = self.settings.sun_samples_per_flight;
+        for i in 0..k {
+            let target = tracking::forced_distance((i as f64 + sampler.next_f64()) / k as f64, p);
+            let mut acc = 0.0;
+            let mut point = None;
+            for (j, seg) in path.segments.iter().enumerate() {
+                let sigma = self.sigma_t(spectra, seg.layer, hero);
+                let d = sigma * (seg.t1 - seg.t0);
+                if sigma > 0.0 {
+                    point = Some((j, (seg.t0 + (target - acc) / sigma).min(seg.t1), sigma));
+                    if acc + d >= target {
+                        break;
+                    }
+                }
+                acc += d;
+            }
+            if let Some((j, t, sigma)) = point {
+                let q = k as f64 * sigma * (-target).exp() / p;
+                self.sun_at_point(path, spectra, ray, (j, t), q, sampler);
+            }
+        }
+        true
+    }
+
+    /// Next-event estimation along a whole flight (`path.ray` holds its
+    /// depths), every channel from one point. The point is drawn from the
+    /// mixture q = (1/K)·Σ_k q_k over the K ≤ 2 followed channels (the
+    /// least and the most extinct, with their centre wavelengths' optics,
+    /// [`SunFollow`]), each q_k a defensive mixture,
+    /// α·q_sun,k + (1 − α)·q_flight,k with
+    /// q_sun,k ∝ c̄·e^(−τ_k)·e^(−τ̃_sun,k) and q_flight,k ∝ c̄·e^(−τ_k),
+    /// c̄ the mean σ_s·P11 at the sun's centre, piecewise exponential over
+    /// runs of the flight's segments ([`FlightDensity`]; α = 0.8). Channel w scores
+    /// e^(−τ_w)·σ_s,w·[R·M_w/(4π)]·T_sun,w/q: unbiased for its
+    /// single-scattering integral along the flight whatever the hero, since
+    /// q > 0 wherever σ_s > 0. Following the least extinct channel bounds
+    /// the weight of every channel more extinct than it in every layer by
+    /// K/(1 − α) times their ratio of σ_s (its e^(−τ) and T_sun are the
+    /// smaller); ozone's bands, and a band's own wavelengths, can break that
+    /// order in places. The point's density is the same for every channel,
+    /// so the path's spectral MIS weight (over the densities of the vertices
+    /// before) applies unchanged. Returns false (nothing done) without
+    /// sun-aware connections or for an endless flight.
+    pub(super) fn sun_along_flight(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        ray: &Ray,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let Some(follow) = &self.sun_follow else {
+            return false;
+        };
+        if !self.flight_segments(path, ray) {
+            return false;
+        }
+        if path.segments.is_empty() {
+            return true;
+        }
+        let depth = &follow.depth;
+        let nk = follow.channels.len();
+        let s0 = self.sun.direction;
+        let cos0 = (-s0).dot(-ray.dir);
+        // Rayleigh's and the aerosol's P11 at the sun's centre per followed
+        // channel, recomputed only when the parameters change.
+        let mut rayleigh = [(f64::NAN, 0.0); 2];
+        let mut aerosol = [(f64::NAN, 0.0); 2];
+        let optics = |_: usize, seg: &Segment| {
+            let len = seg.t1 - seg.t0;
+            let mut o = [(0.0, 0.0); 2];
+            for (k, ok) in o.iter_mut().enumerate().take(nk) {
+                let c = follow.coefficients[seg.layer * nk + k];
+                if rayleigh[k].0 != c.rayleigh_depolarization {
+                    let depolarization = c.rayleigh_depolarization;
+                    rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
+                }
+                let mut sca = c.sigma_rayleigh * rayleigh[k].1;
+                if c.sigma_aerosol_sca > 0.0 {
+                    if aerosol[k].0 != c.aerosol_g {
+                        let g = c.aerosol_g;
+                        aerosol[k] = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
+                    }
+                    sca += c.sigma_aerosol_sca * aerosol[k].1;
+                }
+                *ok = (c.sigma_t * len, sca);
+            }
+            o
+        };
+        if !path
+            .density
+            .build(ray, &path.segments, nk, PIECE_SEGMENTS, optics, depth, s0)
+        {
+            return true;
+        }
+        let Some(point) = path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler) else {
+            return true;
+        };
+        self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
+        true
+    }
+
+    /// Every channel's transmittance toward the sun from `x` (in `layer`)
+    /// into `path.shadow_tr`, along the direct beam's path (`sun_ray`):
+    /// exact, or ratio-tracked against the largest of the channels'
+    /// majorants ([`SunTransmittance`]); false when the shadow ray hits the
+    /// planet or carries nothing.
+    pub(super) fn sun_transmittances(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        x: DVec3,
+        dir: DVec3,
+        layer: usize,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let (geometry, ray) = sun_ray(
+            self.geometry,
+            self.pseudo_spherical_radius_km,
+            Ray { origin: x, dir, layer },
+        );
+        match self.settings.sun_transmittance {
+            SunTransmittance::Analytic => {
+                if !self.shadow_depths(&mut path.shadow, spectra, &geometry, &ray) {
+                    return false;
+                }
+                for (tr, tau) in path.shadow_tr.iter_mut().zip(&path.shadow.tau) {
+                    *tr = (-tau).exp();
+                }
+                true
+            }
+            SunTransmittance::RatioTracking => {
+                // A horizontal ray of a slab never leaves it.
+                if geometry == Geometry::PlaneParallel && ray.dir.z == 0.0 {
+                    return false;
+                }
+                let n = self.channels.len();
+                let tr = &mut path.shadow_tr;
+                tr.fill(1.0);
+                let majorant = |layer| (0..n).map(|w| self.majorant(spectra, layer, w)).fold(0.0, f64::max);
+                let end = tracking::sample_t_maj(majorant, &geometry, &self.levels_km, &ray, sampler, |c, _| {
+                    let f = self.fraction(&geometry, c.layer, ray.origin + c.t * ray.dir);
+                    let mut alive = false;
+                    for (w, tr) in tr.iter_mut().enumerate() {
+                        *tr *= 1.0 - self.sigma_t_point(spectra, c.layer, w, f) / c.sigma_maj;
+                        alive |= *tr != 0.0;
+                    }
+                    alive
+                });
+                matches!(end, FlightEnd::Top { .. })
+            }
+        }
+    }
+
+    /// One shadow ray toward the sun from a scattering at `x` for every
+    /// channel, each with its phase mixture in `path.mixtures` and, when
+    /// `weighted`, times `path.factors[w]`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn sun_from(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        x: DVec3,
+        layer: usize,
+        k_out: DVec3,
+        sampler: &mut Sampler,
+        weighted: bool,
+    ) {
+        let s = self.sun.sample_direction(sampler.next2());
+        if !self.sun_transmittances(path, spectra, x, s, layer, sampler) {
+            return;
+        }
+        let k_in = -s;
+        let cos = k_in.dot(k_out);
+        let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
+        for w in 0..self.channels.len() {
+            let tr = path.shadow_tr[w];
+            if tr == 0.0 {
+                continue;
+            }
+            let m = path.mixtures[w].matrix(cos);
+            let column = if self.settings.polarized {
+                rotation.column_of(&path.throughput[w], &m)
+            } else {
+                path.throughput[w] * Stokes::new(m.p11, 0.0, 0.0, 0.0)
+            };
+            let factor = if weighted { path.factors[w] } else { 1.0 };
+            path.add(w, column * (factor * tr * INV_4PI));
+        }
+    }
+}

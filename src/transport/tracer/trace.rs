@@ -1,0 +1,268 @@
+//! One radiance sample: a path from the sensor, vertex by vertex (scattering,
+//! ground reflection, splitting at the first vertex), scoring every channel
+//! and albedo.
+
+use super::channel_optics::ChannelSpectra;
+use super::path::{Outcome, Path, WORK, Work};
+use super::scene::Scene;
+use std::f64::consts::FRAC_1_PI;
+
+use glam::DVec3;
+
+use crate::job::options::MAX_ALBEDOS;
+use crate::polarization::stokes::{Mueller, Stokes};
+use crate::sampling::sampler::Sampler;
+use crate::transport::integrator::{
+    cosine_hemisphere, pick_component, quarter_turn, reference_albedo, scattering_frame,
+};
+use crate::transport::tracking::{self, Ray, WalkEnd};
+
+impl Scene {
+    /// One sample of the diffuse Stokes radiance arriving at the observer at
+    /// `altitude_km` from viewing direction `view` (unit, observer frame),
+    /// referred to the axis `e1` (unit, ⟂ `view`; e.g. the meridian axis,
+    /// see [`crate::polarization::stokes_frame`]), at every channel and albedo, into
+    /// `out[channel·albedos + albedo]` ([`Scene::value_count`] values).
+    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, e1: DVec3, sampler: &mut Sampler, out: &mut [Stokes]) {
+        WORK.with_borrow_mut(|work| {
+            let Work { path, spare, spectra } = work;
+            let spectra = match &self.fixed {
+                Some(fixed) => fixed,
+                None => {
+                    self.draw_spectra(spectra, sampler);
+                    &*spectra
+                }
+            };
+            let n = self.channels.len();
+            let albedos = self.albedos.len().min(MAX_ALBEDOS);
+            let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
+            let levels = &self.levels_km;
+            path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
+            if spectra.sigma.is_empty() {
+                path.hero_sigma.clear();
+                path.hero_sigma
+                    .extend((0..levels.len() - 1).map(|l| self.sigma_t(spectra, l, hero)));
+            }
+            let origin = self.geometry.observer_position(altitude_km);
+            let up = self.geometry.up(origin);
+            match tracking::layer_at(levels, altitude_km, view.dot(up)) {
+                Some(layer) => self.trace(
+                    path,
+                    spectra,
+                    Ray {
+                        origin,
+                        dir: view,
+                        layer,
+                    },
+                    sampler,
+                    Some(spare),
+                ),
+                None => {
+                    if altitude_km <= levels[0] && view.dot(up) < 0.0 {
+                        self.trace_on_from_ground(path, spectra, origin, sampler);
+                    }
+                }
+            }
+            out.copy_from_slice(&path.radiance);
+            if self.source.is_some() {
+                for (w, per_albedo) in out.chunks_mut(albedos).enumerate() {
+                    for s in per_albedo {
+                        *s = *s * spectra.source[w];
+                    }
+                }
+            }
+        })
+    }
+
+    /// Follows a path from `ray` to its end. With a `spare` path to split
+    /// into and [`Settings::first_vertex_splitting`], the sensor's first
+    /// vertex is split: a forced flight toward
+    /// a reflecting ground follows both ends (the ground with weight
+    /// e^(−τ_λ) at every λ, a decision taken for all wavelengths alike, so
+    /// no density changes; the collision forced), and the first scattering
+    /// goes on in the sampled direction and its quarter turn, which every
+    /// wavelength's phase function gives the same density.
+    pub(super) fn trace(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        mut ray: Ray,
+        sampler: &mut Sampler,
+        mut spare: Option<&mut Path>,
+    ) {
+        let n = self.channels.len();
+        if !self.settings.first_vertex_splitting {
+            spare = None;
+        }
+        let forced = self.forced();
+        loop {
+            let Some(end) = self.exit_depths(&mut path.ray, spectra, &self.geometry, &ray) else {
+                return;
+            };
+            // A forced flight toward a reflecting ground is split at the
+            // sensor's first vertex, else analog.
+            let to_ground = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
+            let split = forced && to_ground && path.order == 0 && spare.is_some();
+            let forced_flight = forced && (split || !to_ground);
+            // Sun connections along the whole flight (sun-aware, or
+            // stratified on a forced flight), with the throughput and
+            // densities before its collision.
+            let sun_done = !self.order_done(path.order)
+                && (self.sun_along_flight(path, spectra, &ray, sampler)
+                    || (forced_flight
+                        && self.settings.sun_samples_per_flight > 1
+                        && self.sun_stratified(path, spectra, &ray, sampler)));
+            if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
+                branch.branch_from(path);
+                for (m, tau) in branch.throughput.iter_mut().zip(&path.ray.tau) {
+                    *m = *m * (-tau).exp();
+                }
+                self.trace_on_from_ground(branch, spectra, ray.origin + t * ray.dir, sampler);
+                std::mem::swap(&mut path.radiance, &mut branch.radiance);
+            }
+            match self.flight(path, spectra, &ray, end, forced_flight, sampler) {
+                Outcome::Escaped => return,
+                Outcome::Ground { t } => {
+                    let x = ray.origin + t * ray.dir;
+                    if !self.ground(path, spectra, x, sampler) {
+                        return;
+                    }
+                    let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
+                    ray = Ray {
+                        origin: x,
+                        dir,
+                        layer: 0,
+                    };
+                }
+                Outcome::Collided { t, layer } => {
+                    let x = ray.origin + t * ray.dir;
+                    let k_out = -ray.dir;
+                    path.order += 1;
+                    if !sun_done {
+                        // At the collision, with every channel's phase mixture there.
+                        self.sun_from(path, spectra, x, layer, k_out, sampler, false);
+                    }
+                    if self.order_done(path.order) {
+                        return;
+                    }
+                    // Direction from one wavelength's phase function, picked
+                    // uniformly, weighted by the mixture of all wavelengths'
+                    // densities.
+                    let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
+                    let f = self.fraction(&self.geometry, layer, x);
+                    let coeffs = self.coefficients(spectra, layer, pick, f);
+                    let component = pick_component(&coeffs, sampler.next_f64());
+                    let (k_in, _) = component.sample_direction(k_out, sampler.next2());
+                    let cos = k_in.dot(k_out);
+                    path.matrices.clear();
+                    path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(cos)));
+                    if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
+                        branch.branch_from(path);
+                        branch.halve();
+                        if let Some(next) = self.scattered(branch, quarter_turn(k_out, k_in), k_out, x, layer, sampler)
+                        {
+                            self.trace(branch, spectra, next, sampler, None);
+                        }
+                        std::mem::swap(&mut path.radiance, &mut branch.radiance);
+                        path.halve();
+                    }
+                    match self.scattered(path, k_in, k_out, x, layer, sampler) {
+                        Some(next) => ray = next,
+                        None => return,
+                    }
+                }
+            }
+        }
+    }
+
+    /// Scatters the path at `x` (in `layer`) from light along k_in into
+    /// k_out with every wavelength's matrix at the last collision
+    /// (`path.matrices`); the ray it goes on along, or `None` when roulette
+    /// ends it.
+    pub(super) fn scattered(
+        &self,
+        path: &mut Path,
+        k_in: DVec3,
+        k_out: DVec3,
+        x: DVec3,
+        layer: usize,
+        sampler: &mut Sampler,
+    ) -> Option<Ray> {
+        let inv_mean_p11 = path.matrices.len() as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
+        let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
+        for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
+            *t = if self.settings.polarized {
+                rotation.right_of_then(t, &m.scaled(inv_mean_p11))
+            } else {
+                *t * Mueller::depolarizer(m.p11 * inv_mean_p11)
+            };
+        }
+        path.frame_e1 = e1_in;
+        if !path.roulette(sampler) {
+            return None;
+        }
+        Some(Ray {
+            origin: x,
+            dir: -k_in,
+            layer,
+        })
+    }
+
+    /// A ground vertex at `x` and the rest of the path from it (unsplit).
+    pub(super) fn trace_on_from_ground(
+        &self,
+        path: &mut Path,
+        spectra: &ChannelSpectra,
+        x: DVec3,
+        sampler: &mut Sampler,
+    ) {
+        if self.ground(path, spectra, x, sampler) {
+            let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
+            self.trace(
+                path,
+                spectra,
+                Ray {
+                    origin: x,
+                    dir,
+                    layer: 0,
+                },
+                sampler,
+                None,
+            );
+        }
+    }
+
+    /// A ground vertex: NEE to the sun for every wavelength, then the
+    /// Lambertian weight. Returns whether the path goes on.
+    pub(super) fn ground(&self, path: &mut Path, spectra: &ChannelSpectra, x: DVec3, sampler: &mut Sampler) -> bool {
+        if !self.reflects() {
+            return false;
+        }
+        path.order += 1;
+        let a_ref = reference_albedo(&self.albedos);
+        // Lambertian and depolarising: only the first column survives.
+        for t in path.throughput.iter_mut() {
+            for row in t.0.iter_mut() {
+                *row = [row[0] * a_ref, 0.0, 0.0, 0.0];
+            }
+        }
+        for (w, a) in path.albedo_weights.iter_mut().zip(&self.albedos) {
+            *w *= a / a_ref;
+        }
+        let up = self.geometry.up(x);
+        let s = self.sun.sample_direction(sampler.next2());
+        let mu_s = s.dot(up);
+        if mu_s > 0.0 && self.sun_transmittances(path, spectra, x, s, 0, sampler) {
+            for w in 0..self.channels.len() {
+                let f = FRAC_1_PI * mu_s * path.shadow_tr[w];
+                let m = &path.throughput[w].0;
+                let column = Stokes::new(m[0][0], m[1][0], m[2][0], m[3][0]);
+                path.add(w, column * f);
+            }
+        }
+        if self.order_done(path.order) {
+            return false;
+        }
+        path.roulette(sampler)
+    }
+}
