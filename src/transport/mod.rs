@@ -1,7 +1,6 @@
 //! Light transport: the medium a path sees, free flights through it, the polarised path tracer with its sun connections, and transmittance.
 
 pub mod flight_density;
-pub mod integrator;
 pub mod medium;
 pub mod scene_build;
 pub mod sun_depth;

@@ -3,8 +3,6 @@
 //! coefficients per layer or point, and optical depths combined from the
 //! basis (τ_λ = Σ_b W_λb·τ_b).
 
-use super::scene::Scene;
-
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
@@ -14,31 +12,8 @@ use crate::sampling::sampler::Sampler;
 use crate::transport::medium::shape_integrals;
 use crate::transport::tracking::Ray;
 
-/// What the channels' optics are on one path: each channel's term
-/// responses (`[channel·terms + term]`), extinction weights on the
-/// basis (`[channel·basis + b]`) and source factors (E0 at the channel's
-/// wavelength, or 1 without a source spectrum).
-#[derive(Debug, Clone, Default)]
-pub(super) struct ChannelSpectra {
-    pub(super) responses: Vec<TermOptics>,
-    pub(super) weights: Vec<f64>,
-    pub(super) source: Vec<f64>,
-    /// Where every path shares them (monochromatic channels): each
-    /// channel's σ_t per layer (`[channel·layers + layer]`; the layer mean in
-    /// the smooth medium) and, in the layered medium, its coefficients per
-    /// layer likewise; empty otherwise.
-    pub(super) sigma: Vec<f64>,
-    pub(super) coefficients: Vec<PointOptics>,
-}
-
-/// The basis optical depths are computed on.
-#[derive(Debug, Clone)]
-pub(super) enum Basis {
-    /// The extinction terms (their indices among the atmosphere's terms).
-    Terms(Vec<usize>),
-    /// One σ_t profile per (monochromatic) channel.
-    Channels,
-}
+use super::scene::Scene;
+use super::spectra::{Basis, ChannelSpectra};
 
 impl Scene {
     /// Fills the spectra's source factors for the channels' wavelengths

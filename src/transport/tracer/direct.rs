@@ -2,14 +2,15 @@
 //! beam and on a horizontal plane, per wavelength or averaged over a band's
 //! cells from the columns of the extinction terms.
 
-use super::scene::{DIRECT_CELL_NM, Scene};
 use std::ops::ControlFlow;
 
 use crate::atmosphere::spectral_terms::TermOptics;
 use crate::geometry::shell::Geometry;
-use crate::transport::integrator::sun_ray;
 use crate::transport::medium::shape_integrals;
 use crate::transport::tracking::{self, Ray, WalkEnd};
+
+use super::scene::{DIRECT_CELL_NM, Scene};
+use super::vertex::sun_ray;
 
 impl Scene {
     /// The direct solar irradiance on a horizontal plane at the observer

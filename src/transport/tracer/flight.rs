@@ -2,15 +2,16 @@
 //! forced, delta-tracked), each channel's density of that end, and the
 //! optical depths to where a ray leaves.
 
-use super::channel_optics::ChannelSpectra;
-use super::path::{Depths, Outcome, Path};
-use super::scene::Scene;
 use std::ops::ControlFlow;
 
 use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
-use crate::transport::integrator::phase_mixture;
 use crate::transport::tracking::{self, FlightEnd, Ray, Segment, WalkEnd};
+
+use super::path::{Depths, Outcome, Path};
+use super::scene::Scene;
+use super::spectra::ChannelSpectra;
+use super::vertex::phase_mixture;
 
 impl Scene {
     /// Every channel's optical depth from the ray's origin to where it

@@ -84,7 +84,9 @@ mod direct;
 mod flight;
 mod path;
 mod scene;
+mod spectra;
 mod sun_connection;
 mod trace;
+mod vertex;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};

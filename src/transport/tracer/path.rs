@@ -2,7 +2,6 @@
 //! scattering order), the optical depths along one ray, the thread's reusable
 //! work space, and Russian roulette.
 
-use super::channel_optics::ChannelSpectra;
 use std::cell::RefCell;
 
 use glam::DVec3;
@@ -13,9 +12,11 @@ use crate::polarization::phase::PhaseMixture;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 use crate::transport::flight_density::FlightDensity;
-use crate::transport::integrator::ROULETTE_THRESHOLD;
 use crate::transport::sun_depth::SunDepth;
 use crate::transport::tracking::{Segment, ShellExit};
+
+use super::spectra::ChannelSpectra;
+use super::vertex::ROULETTE_THRESHOLD;
 
 /// A path's state; its per-wavelength vectors are reused from sample to
 /// sample on each thread ([`WORK`]).

@@ -2,9 +2,6 @@
 //! channels, the sun, the ground's albedos, the transport's settings), and
 //! how one is made.
 
-use super::channel_optics::{Basis, ChannelSpectra};
-use super::path::SunFollow;
-use crate::job::spectrum::Channel;
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -15,10 +12,14 @@ use crate::atmosphere::spectral_terms::{SpectralTerms, TermOptics, TermShape};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
 use crate::job::options::{MAX_ALBEDOS, Settings};
+use crate::job::spectrum::Channel;
 use crate::physics::solar::SolarSpectrum;
-use crate::transport::integrator::reflects;
 use crate::transport::medium::density_steps;
 use crate::transport::sun_depth::SunDepth;
+
+use super::path::SunFollow;
+use super::spectra::{Basis, ChannelSpectra};
+use super::vertex::reflects;
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
 pub const DIRECT_CELL_NM: f64 = 0.05;

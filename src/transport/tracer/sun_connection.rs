@@ -2,10 +2,6 @@
 //! of a flight, or at one point of the sun-aware density; shadow rays'
 //! transmittance for every channel.
 
-use super::channel_optics::ChannelSpectra;
-use super::path::{PIECE_SEGMENTS, Path};
-use super::scene::Scene;
-
 use glam::DVec3;
 
 use crate::geometry::shell::Geometry;
@@ -13,8 +9,12 @@ use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
 use crate::polarization::stokes::Stokes;
 use crate::sampling::sampler::Sampler;
-use crate::transport::integrator::{INV_4PI, SUN_AWARE_SHARE, phase_mixture, scattering_frame, sun_ray};
 use crate::transport::tracking::{self, FlightEnd, Ray, Segment};
+
+use super::path::{PIECE_SEGMENTS, Path};
+use super::scene::Scene;
+use super::spectra::ChannelSpectra;
+use super::vertex::{INV_4PI, SUN_AWARE_SHARE, phase_mixture, scattering_frame, sun_ray};
 
 impl Scene {
     /// A sun connection from the point at distance `t` in segment `i` of

@@ -2,9 +2,6 @@
 //! ground reflection, splitting at the first vertex), scoring every channel
 //! and albedo.
 
-use super::channel_optics::ChannelSpectra;
-use super::path::{Outcome, Path, WORK, Work};
-use super::scene::Scene;
 use std::f64::consts::FRAC_1_PI;
 
 use glam::DVec3;
@@ -12,10 +9,12 @@ use glam::DVec3;
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::stokes::{Mueller, Stokes};
 use crate::sampling::sampler::Sampler;
-use crate::transport::integrator::{
-    cosine_hemisphere, pick_component, quarter_turn, reference_albedo, scattering_frame,
-};
 use crate::transport::tracking::{self, Ray, WalkEnd};
+
+use super::path::{Outcome, Path, WORK, Work};
+use super::scene::Scene;
+use super::spectra::ChannelSpectra;
+use super::vertex::{cosine_hemisphere, pick_component, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
     /// One sample of the diffuse Stokes radiance arriving at the observer at

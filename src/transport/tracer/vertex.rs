@@ -1,8 +1,7 @@
-//! The transport's settings, and the pieces of a path's vertices that do
-//! not depend on its channels: phase-function choice and mixtures, the
-//! scattering-plane frame, the quarter turn of the split first vertex,
-//! cosine-weighted ground directions and the direct beam's geometry. The
-//! path tracer itself, and its estimator, is `spectral`.
+//! The pieces of a path's vertices that do not depend on its channels:
+//! phase-function choice and mixtures, the scattering-plane frame, the
+//! quarter turn of the split first vertex, cosine-weighted ground
+//! directions, the reference albedo and the direct beam's geometry.
 
 use std::f64::consts::{FRAC_1_PI, PI};
 
