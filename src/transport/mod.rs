@@ -5,5 +5,6 @@ pub mod integrator;
 pub mod medium;
 pub mod spectral;
 pub mod sun_depth;
+pub mod table_build;
 pub mod tracking;
 pub mod transmittance;
