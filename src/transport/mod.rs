@@ -4,6 +4,7 @@ pub mod flight_density;
 pub mod medium;
 pub mod scene_build;
 pub mod sun_depth;
+pub mod table_build;
 pub mod tracer;
 pub mod tracking;
 pub mod transmittance;
