@@ -3,7 +3,7 @@
 //! A spectral, polarised Monte Carlo path tracer for the Earth's atmosphere,
 //! producing the reference skies that fitted sky models are built from.
 //!
-//! Conventions (shared/CONVENTIONS.md, pinned by tests): wavelengths in nm,
+//! Conventions (CONVENTIONS.md, pinned by tests): wavelengths in nm,
 //! lengths in km (f64), coefficients in km⁻¹; angles in degrees at the edges
 //! and radians inside; radiance per unit extraterrestrial solar irradiance
 //! (E0 = 1, sr⁻¹); Stokes vectors (I, Q, U, V) in the meridian frame of the

@@ -1,7 +1,7 @@
 //! Stokes vectors, Mueller matrices and the meridian reference frame.
 //!
 //! This module is the one place in the code where the polarisation
-//! conventions of `shared/CONVENTIONS.md` are implemented (they follow the
+//! conventions of `CONVENTIONS.md` are implemented (they follow the
 //! IPRT / libRadtran-MYSTIC conventions):
 //!
 //! - A Stokes vector `(I, Q, U, V)` describes light propagating along `k`,

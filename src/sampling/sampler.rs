@@ -1,7 +1,7 @@
 //! Random streams. Every sample's stream is derived from its keys (job
 //! seed, wavelength, direction or pixel, sample index), never from thread
 //! identity or timing, so the same job gives bit-identical output for any
-//! number of threads (shared/CONVENTIONS.md, "Randomness and determinism").
+//! number of threads (CONVENTIONS.md, "Randomness and determinism").
 
 use rand::Rng;
 use rand_pcg::Pcg64Mcg;

@@ -1,6 +1,6 @@
 //! Image sensors: how pixels map to viewing directions in the observer's
 //! frame (z up, x toward the sun's azimuth, azimuth φ counter-clockwise
-//! seen from above; shared/CONVENTIONS.md).
+//! seen from above; CONVENTIONS.md).
 //!
 //! - `fisheye` (N × N): a circle of radius N/2 pixels holds a hemisphere.
 //!   The radius ρ ∈ [0, 1] (in units of the circle's radius) of the angle
