@@ -14,12 +14,12 @@
 
 mod common;
 
+use atmosim::geometry::ray::{Ray, WalkEnd};
 use atmosim::job::Job;
 use atmosim::job::options::MediumModel;
 use atmosim::polarization::phase::PhaseFunction;
 use atmosim::sensor::direction::Direction;
 use atmosim::transport::medium::Medium;
-use atmosim::transport::tracking::{self, Ray, WalkEnd};
 use common::{Comparison, directions, job, render};
 
 /// Directions seen from the ground, and from 10 km (also looking down, to
@@ -51,9 +51,9 @@ fn quadrature(job: &Job, altitude_km: f64, d: &Direction) -> f64 {
     let (geometry, sun) = (&scene.geometry, scene.sun.direction);
     let v = d.vector();
     let origin = scene.observer_position(altitude_km);
-    let layer = tracking::layer_at(medium.levels_km(), altitude_km, v.dot(geometry.up(origin))).unwrap();
+    let layer = atmosim::geometry::ray::layer_at(medium.levels_km(), altitude_km, v.dot(geometry.up(origin))).unwrap();
     let mut segments = Vec::new();
-    tracking::segments_of(medium, geometry, &Ray { origin, dir: v, layer }, &mut segments);
+    atmosim::transport::free_flight::segments_of(medium, geometry, &Ray { origin, dir: v, layer }, &mut segments);
     let (mut total, mut tau0) = (0.0, 0.0);
     for &(seg, tau_seg) in &segments {
         let n = 4000;
@@ -67,9 +67,9 @@ fn quadrature(job: &Job, altitude_km: f64, d: &Direction) -> f64 {
                 depolarization: c.rayleigh_depolarization,
             }
             .p11(sun.dot(v));
-            let t_sun = match tracking::layer_at(medium.levels_km(), z, sun.dot(geometry.up(x))) {
+            let t_sun = match atmosim::geometry::ray::layer_at(medium.levels_km(), z, sun.dot(geometry.up(x))) {
                 None => 1.0,
-                Some(layer) => match tracking::optical_depth(
+                Some(layer) => match atmosim::transport::optical_depth::optical_depth(
                     medium,
                     geometry,
                     &Ray {

@@ -1,19 +1,20 @@
-//! Ray geometry of the atmosphere: concentric spherical shells around the
-//! planet centre (at the origin) and plane-parallel slabs, lengths in km.
+//! The planet's geometry (concentric spherical shells around the planet
+//! centre at the origin, or plane-parallel slabs; lengths in km) and the
+//! step of the general ray walk: [`next_boundary`], the distance from a
+//! point inside one layer to the next layer boundary, including rays that
+//! dip towards a lower shell, miss it and leave through the upper shell of
+//! the same layer. The stepwise walk (`geometry::ray`) uses it in slabs,
+//! and the closed-form walk through shells is tested against it.
 //!
 //! Rays in a 6378 km planet are often nearly tangent to a shell, where the
 //! textbook quadratic `t² + 2bt + c = 0` loses most of its digits. Following
 //! Haines et al. 2019, "Precision Improvements for Ray/Sphere Intersection"
-//! (Ray Tracing Gems, ch. 7), [`ray_sphere`] computes
+//! (Ray Tracing Gems, ch. 7), the entry and exit distances take
 //! - the discriminant as `r² − |o − (o·d)d|²`, factored as
 //!   `(r − h)(r + h)` with `h` the distance of the line from the centre,
 //!   instead of `b² − c` (two nearly equal numbers);
 //! - `c = |o|² − r²` as `(|o| − r)(|o| + r)`;
 //! - the smaller root through the stable form `t = c/q`, `q = −b − sgn(b)√Δ`.
-//!
-//! [`next_boundary`] steps a ray from inside one layer to the next layer
-//! boundary, including rays that dip towards a lower shell, miss it and leave
-//! through the upper shell of the same layer.
 
 use glam::DVec3;
 
@@ -66,7 +67,9 @@ pub struct ShellCrossing {
 /// Roots of `|origin + t·dir| = radius` for a unit `dir`: `(t_near, t_far)`
 /// with `t_near ≤ t_far` (either may be negative), or `None` when the line
 /// misses the sphere. A tangent line gives `t_near == t_far` up to rounding.
-pub fn ray_sphere(origin: DVec3, dir: DVec3, radius: f64) -> Option<(f64, f64)> {
+/// (The tests' check of the root forms.)
+#[cfg(test)]
+fn ray_sphere(origin: DVec3, dir: DVec3, radius: f64) -> Option<(f64, f64)> {
     let (b, c, disc) = quadratic_terms(origin, dir, radius);
     if disc < 0.0 {
         return None;

@@ -22,9 +22,9 @@
 
 use glam::DVec3;
 
+use crate::geometry::ray::{Ray, Segment};
 use crate::sampling::sampler::Sampler;
 use crate::transport::sun_depth::SunDepth;
-use crate::transport::tracking::{Ray, Segment};
 
 /// The most optical depth of the last followed channel in one piece of
 /// more than one segment.

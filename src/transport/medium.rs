@@ -157,7 +157,7 @@ impl Medium {
     }
 
     /// The majorant's step at each level, σ_maj(k − 1) − σ_maj(k) (zero
-    /// outside the atmosphere): see [`crate::transport::tracking::shell_exit`].
+    /// outside the atmosphere): see [`crate::geometry::shell_exit::shell_exit`].
     #[inline]
     pub fn steps(&self) -> &[f64] {
         &self.steps

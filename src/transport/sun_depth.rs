@@ -15,9 +15,9 @@
 
 use glam::DVec3;
 
+use crate::geometry::ray::{Ray, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::transport::medium::Medium;
-use crate::transport::tracking::{self, Ray, WalkEnd};
 
 /// Optical depth given to sun rays that hit the planet (the density must
 /// stay positive where the table is only approximate).
@@ -143,7 +143,7 @@ impl SunDepth {
                             depth.extend(std::iter::repeat_n(0.0, profiles));
                             depth.push(1.0);
                         };
-                        match tracking::layer_at(&levels, z, mu) {
+                        match crate::geometry::ray::layer_at(&levels, z, mu) {
                             None if mu >= 0.0 => depth.extend(std::iter::repeat_n(0.0, profiles + 1)),
                             None => blocked(&mut depth),
                             Some(layer) => {
@@ -153,7 +153,7 @@ impl SunDepth {
                                     layer,
                                 };
                                 tau.fill(0.0);
-                                let end = tracking::walk(geometry, &levels, &ray, |seg| {
+                                let end = crate::geometry::ray::walk(geometry, &levels, &ray, |seg| {
                                     for (t, sigma) in tau.iter_mut().zip(sigmas) {
                                         *t += sigma[seg.layer] * (seg.t1 - seg.t0);
                                     }
@@ -383,8 +383,8 @@ mod tests {
             let table = SunDepth::new(&m, &g, sun, false);
             for z in [0.3, 2.7, 13.0, 41.0] {
                 let x = DVec3::new(0.0, 0.0, 6378.0 + z);
-                let layer = tracking::layer_at(m.levels_km(), z, 1.0).unwrap();
-                let (exact, _) = tracking::optical_depth(
+                let layer = crate::geometry::ray::layer_at(m.levels_km(), z, 1.0).unwrap();
+                let (exact, _) = crate::transport::optical_depth::optical_depth(
                     &m,
                     &g,
                     &Ray {
@@ -410,9 +410,9 @@ mod tests {
     /// the planet.
     fn exact_depth(m: &Medium, g: &Geometry, x: DVec3, sun: DVec3, radius_km: f64) -> f64 {
         let z = x.length() - radius_km;
-        match tracking::layer_at(m.levels_km(), z, x.normalize().dot(sun)) {
+        match crate::geometry::ray::layer_at(m.levels_km(), z, x.normalize().dot(sun)) {
             None => 0.0,
-            Some(layer) => match tracking::optical_depth(
+            Some(layer) => match crate::transport::optical_depth::optical_depth(
                 m,
                 g,
                 &Ray {

@@ -37,11 +37,11 @@ use std::ops::ControlFlow;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
 use crate::transport::medium::Medium;
 use crate::transport::tracer::Scene;
-use crate::transport::tracking::{self, Ray};
 
 /// The line of sight from the observer to a grid point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,7 +87,7 @@ pub fn line_of_sight(geometry: &Geometry, levels_km: &[f64], observer_km: f64, a
         return Sight::Blocked;
     }
     let up = geometry.up(o).dot(dir);
-    match tracking::layer_at(levels_km, observer_km, up) {
+    match crate::geometry::ray::layer_at(levels_km, observer_km, up) {
         Some(layer) => Sight::Clear {
             ray: Ray { origin: o, dir, layer },
             length_km,
@@ -107,8 +107,8 @@ pub struct Table {
     pub blocked: Vec<bool>,
 }
 
-/// Optical depth along `ray` up to `length` (km): see [`tracking::optical_depth_to`].
-pub use crate::transport::tracking::optical_depth_to;
+/// Optical depth along `ray` up to `length` (km): see [`crate::transport::optical_depth::optical_depth_to`].
+pub use crate::transport::optical_depth::optical_depth_to;
 
 /// Ratio tracking of every wavelength at once along `ray` up to `length`:
 /// tentative collisions against `majorant` (whose σ_maj bounds every
@@ -125,7 +125,7 @@ pub fn spectral_ratio_tracking(
 ) {
     out.iter_mut().for_each(|t| *t = 1.0);
     let sigma_maj = |l| majorant.sigma_maj(l);
-    tracking::sample_t_maj(sigma_maj, geometry, majorant.levels_km(), ray, sampler, |c, _| {
+    crate::transport::free_flight::sample_t_maj(sigma_maj, geometry, majorant.levels_km(), ray, sampler, |c, _| {
         if c.t >= length {
             return false;
         }
@@ -154,7 +154,7 @@ pub fn spectral_residual_ratio_tracking(
 ) {
     // Control: the layer means, exactly.
     out.iter_mut().for_each(|t| *t = 0.0);
-    tracking::walk(geometry, media[0].levels_km(), ray, |seg| {
+    crate::geometry::ray::walk(geometry, media[0].levels_km(), ray, |seg| {
         let len = seg.t1.min(length) - seg.t0;
         if len > 0.0 {
             for (t, m) in out.iter_mut().zip(media) {
@@ -169,7 +169,7 @@ pub fn spectral_residual_ratio_tracking(
     });
     out.iter_mut().for_each(|t| *t = (-*t).exp());
     let sigma_maj = |l| residual_majorant.sigma_maj(l);
-    tracking::sample_t_maj(
+    crate::transport::free_flight::sample_t_maj(
         sigma_maj,
         geometry,
         residual_majorant.levels_km(),

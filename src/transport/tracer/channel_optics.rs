@@ -7,10 +7,10 @@ use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::{TermOptics, TermShape};
+use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
 use crate::transport::medium::shape_integrals;
-use crate::transport::tracking::Ray;
 
 use super::scene::Scene;
 use super::spectra::{Basis, ChannelSpectra};

@@ -5,9 +5,9 @@
 use std::ops::ControlFlow;
 
 use crate::atmosphere::spectral_terms::TermOptics;
+use crate::geometry::ray::{Ray, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::transport::medium::shape_integrals;
-use crate::transport::tracking::{self, Ray, WalkEnd};
 
 use super::scene::{DIRECT_CELL_NM, Scene};
 use super::vertex::sun_ray;
@@ -40,7 +40,7 @@ impl Scene {
         if mu0 <= 0.0 {
             return 0.0;
         }
-        let columns = match tracking::layer_at(&self.levels_km, altitude_km, mu0) {
+        let columns = match crate::geometry::ray::layer_at(&self.levels_km, altitude_km, mu0) {
             Some(layer) => match self.term_columns_in(
                 sun_ray(
                     self.geometry,
@@ -67,7 +67,7 @@ impl Scene {
     pub(super) fn term_columns_in(&self, (geometry, ray): (Geometry, Ray), length: f64) -> Option<Vec<f64>> {
         let terms = &self.terms.terms;
         let mut columns = vec![0.0; terms.len()];
-        let end = tracking::walk(&geometry, &self.levels_km, &ray, |seg| {
+        let end = crate::geometry::ray::walk(&geometry, &self.levels_km, &ray, |seg| {
             let t1 = seg.t1.min(length);
             if t1 > seg.t0 {
                 let integrals = match &self.shapes {

@@ -4,9 +4,10 @@
 
 use std::ops::ControlFlow;
 
+use crate::geometry::ray::{Ray, Segment, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
-use crate::transport::tracking::{self, FlightEnd, Ray, Segment, WalkEnd};
+use crate::transport::free_flight::FlightEnd;
 
 use super::path::{Depths, Outcome, Path};
 use super::scene::Scene;
@@ -32,10 +33,10 @@ impl Scene {
             // Closed form through concentric shells where σ is constant in
             // each layer.
             Geometry::Spherical { radius_km } if self.shapes.is_none() => {
-                let exit = tracking::shell_exit(radius_km, levels, ray);
+                let exit = crate::geometry::shell_exit::shell_exit(radius_km, levels, ray);
                 let range = exit.levels();
                 let c = &mut d.chords[..range.len()];
-                tracking::half_chords_into(radius_km, &levels[range], exit.h, c);
+                crate::geometry::chord_kernels::half_chords_into(radius_km, &levels[range], exit.h, c);
                 let base = &self.basis_sigma[ray.layer * b..(ray.layer + 1) * b];
                 let stride = levels.len();
                 for (j, (t, s)) in tau.iter_mut().zip(base).enumerate() {
@@ -48,7 +49,7 @@ impl Scene {
             _ => {
                 d.exit = None;
                 let mut endless = false;
-                let end = tracking::walk(geometry, levels, ray, |seg| {
+                let end = crate::geometry::ray::walk(geometry, levels, ray, |seg| {
                     if seg.t1.is_finite() {
                         self.accumulate_along(tau, geometry, ray, seg.layer, seg.t0, seg.t1);
                     } else {
@@ -82,13 +83,18 @@ impl Scene {
             return matches!(self.exit_depths(d, spectra, geometry, ray), Some(WalkEnd::Top { .. }));
         }
         let levels = &self.levels_km;
-        let exit = tracking::shell_exit(radius_km, levels, ray);
+        let exit = crate::geometry::shell_exit::shell_exit(radius_km, levels, ray);
         if exit.ground {
             return false;
         }
         let steps = &self.basis_steps;
         let sum = |r: &std::ops::Range<usize>| {
-            tracking::weighted_half_chords(radius_km, &levels[r.clone()], &steps[r.clone()], exit.h)
+            crate::geometry::chord_kernels::weighted_half_chords(
+                radius_km,
+                &levels[r.clone()],
+                &steps[r.clone()],
+                exit.h,
+            )
         };
         d.tau_basis[0] = -exit.b * self.basis_sigma[ray.layer] + 2.0 * sum(&exit.twice) + sum(&exit.once);
         Self::combine(spectra, &d.tau_basis, &mut d.tau);
@@ -133,7 +139,7 @@ impl Scene {
                 if path.forced[hero] <= 0.0 {
                     return Outcome::Escaped;
                 }
-                tracking::forced_distance(sampler.next_f64(), path.forced[hero])
+                crate::transport::free_flight::forced_distance(sampler.next_f64(), path.forced[hero])
             } else {
                 -(1.0 - sampler.next_f64()).ln()
             };
@@ -214,7 +220,7 @@ impl Scene {
         };
         let c = match &path.ray.exit {
             Some(exit) => exit.locate(sigma, &path.ray.chords, target),
-            None => tracking::locate_with(sigma, &self.geometry, &self.levels_km, ray, target),
+            None => crate::transport::free_flight::locate_with(sigma, &self.geometry, &self.levels_km, ray, target),
         };
         (c.t, c.layer)
     }
@@ -243,13 +249,13 @@ impl Scene {
                 let _ = exit.try_for_each_segment(chords, visit);
             }
             None => {
-                tracking::walk(geometry, &self.levels_km, ray, visit);
+                crate::geometry::ray::walk(geometry, &self.levels_km, ray, visit);
             }
         }
     }
 
     /// Delta tracking of the hero against its majorant (the smooth medium,
-    /// or inflated majorants; [`tracking::sample_t_maj`]): the first real
+    /// or inflated majorants; [`crate::transport::free_flight::sample_t_maj`]): the first real
     /// collision, with every basis vector's depth to it in
     /// `path.ray.tau_basis`, or `None` past the end.
     pub(super) fn delta_track(
@@ -262,10 +268,11 @@ impl Scene {
         let hero = path.hero;
         let geometry = &self.geometry;
         let majorant = |layer| self.majorant(spectra, layer, hero);
-        let end = tracking::sample_t_maj(majorant, geometry, &self.levels_km, ray, sampler, |c, s| {
-            let f = self.fraction(geometry, c.layer, ray.origin + c.t * ray.dir);
-            s.next_f64() * c.sigma_maj >= self.sigma_t_point(spectra, c.layer, hero, f)
-        });
+        let end =
+            crate::transport::free_flight::sample_t_maj(majorant, geometry, &self.levels_km, ray, sampler, |c, s| {
+                let f = self.fraction(geometry, c.layer, ray.origin + c.t * ray.dir);
+                s.next_f64() * c.sigma_maj >= self.sigma_t_point(spectra, c.layer, hero, f)
+            });
         let FlightEnd::Collided(c) = end else {
             return None;
         };
@@ -302,7 +309,7 @@ impl Scene {
                 let _ = exit.try_for_each_segment(&depths.chords, push);
             }
             None => {
-                tracking::walk(&self.geometry, &self.levels_km, ray, push);
+                crate::geometry::ray::walk(&self.geometry, &self.levels_km, ray, push);
             }
         }
         segments.iter().all(|seg| seg.t1.is_finite())

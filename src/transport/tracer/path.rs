@@ -7,13 +7,14 @@ use std::cell::RefCell;
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
+use crate::geometry::ray::Segment;
+use crate::geometry::shell_exit::ShellExit;
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::phase::PhaseMixture;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 use crate::transport::flight_density::FlightDensity;
 use crate::transport::sun_depth::SunDepth;
-use crate::transport::tracking::{Segment, ShellExit};
 
 use super::spectra::ChannelSpectra;
 use super::vertex::ROULETTE_THRESHOLD;

@@ -4,12 +4,13 @@
 
 use glam::DVec3;
 
+use crate::geometry::ray::{Ray, Segment};
 use crate::geometry::shell::Geometry;
 use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
 use crate::polarization::stokes::Stokes;
 use crate::sampling::sampler::Sampler;
-use crate::transport::tracking::{self, FlightEnd, Ray, Segment};
+use crate::transport::free_flight::FlightEnd;
 
 use super::path::{PIECE_SEGMENTS, Path};
 use super::scene::Scene;
@@ -79,7 +80,7 @@ impl Scene {
         }
         let k = self.settings.sun_samples_per_flight;
         for i in 0..k {
-            let target = tracking::forced_distance((i as f64 + sampler.next_f64()) / k as f64, p);
+            let target = crate::transport::free_flight::forced_distance((i as f64 + sampler.next_f64()) / k as f64, p);
             let mut acc = 0.0;
             let mut point = None;
             for (j, seg) in path.segments.iter().enumerate() {
@@ -216,15 +217,22 @@ impl Scene {
                 let tr = &mut path.shadow_tr;
                 tr.fill(1.0);
                 let majorant = |layer| (0..n).map(|w| self.majorant(spectra, layer, w)).fold(0.0, f64::max);
-                let end = tracking::sample_t_maj(majorant, &geometry, &self.levels_km, &ray, sampler, |c, _| {
-                    let f = self.fraction(&geometry, c.layer, ray.origin + c.t * ray.dir);
-                    let mut alive = false;
-                    for (w, tr) in tr.iter_mut().enumerate() {
-                        *tr *= 1.0 - self.sigma_t_point(spectra, c.layer, w, f) / c.sigma_maj;
-                        alive |= *tr != 0.0;
-                    }
-                    alive
-                });
+                let end = crate::transport::free_flight::sample_t_maj(
+                    majorant,
+                    &geometry,
+                    &self.levels_km,
+                    &ray,
+                    sampler,
+                    |c, _| {
+                        let f = self.fraction(&geometry, c.layer, ray.origin + c.t * ray.dir);
+                        let mut alive = false;
+                        for (w, tr) in tr.iter_mut().enumerate() {
+                            *tr *= 1.0 - self.sigma_t_point(spectra, c.layer, w, f) / c.sigma_maj;
+                            alive |= *tr != 0.0;
+                        }
+                        alive
+                    },
+                );
                 matches!(end, FlightEnd::Top { .. })
             }
         }

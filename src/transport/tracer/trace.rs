@@ -6,10 +6,10 @@ use std::f64::consts::FRAC_1_PI;
 
 use glam::DVec3;
 
+use crate::geometry::ray::{Ray, WalkEnd};
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::stokes::{Mueller, Stokes};
 use crate::sampling::sampler::Sampler;
-use crate::transport::tracking::{self, Ray, WalkEnd};
 
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
@@ -44,7 +44,7 @@ impl Scene {
             }
             let origin = self.geometry.observer_position(altitude_km);
             let up = self.geometry.up(origin);
-            match tracking::layer_at(levels, altitude_km, view.dot(up)) {
+            match crate::geometry::ray::layer_at(levels, altitude_km, view.dot(up)) {
                 Some(layer) => self.trace(
                     path,
                     spectra,

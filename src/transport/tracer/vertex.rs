@@ -8,10 +8,10 @@ use std::f64::consts::{FRAC_1_PI, PI};
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
+use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
 use crate::polarization::phase::{PhaseFunction, PhaseMixture, orthonormal_basis};
 use crate::polarization::stokes::StokesRotation;
-use crate::transport::tracking::Ray;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
 
