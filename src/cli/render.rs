@@ -10,11 +10,12 @@ use anyhow::Context;
 use atmosim::io::output;
 use atmosim::job::{Job, Sensor, Task};
 use atmosim::run::checkpoint::{self, StateFile};
+use atmosim::run::layout::{Layout, UnitState};
 use atmosim::run::merge;
 use atmosim::run::out_dir::Destination;
 use atmosim::run::shard::Shard;
 use atmosim::run::task_output::{self, RunInfo};
-use atmosim::run::work_unit::{self, Control, Layout, Outcome, UnitState};
+use atmosim::run::work_unit::{self, Control, Outcome};
 
 use super::common::{task_index, thread_pool};
 use super::progress::Progress;

@@ -26,8 +26,8 @@ use std::io::Write;
 
 use crate::film::tally::Tally;
 use crate::io::atomic::write_atomic_with;
+use crate::run::layout::UnitState;
 use crate::run::shard::Shard;
-use crate::run::work_unit::UnitState;
 
 const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-2\n";
 /// The header of the previous format, refused with its own message.

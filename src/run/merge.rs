@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::job::Job;
 use crate::run::checkpoint::{SHARD_EXTENSION, StateFile};
+use crate::run::layout::{Layout, UnitState};
 use crate::run::task_output::{self, RunInfo};
-use crate::run::work_unit::{Layout, UnitState};
 
 /// Most missing shards a refusal names.
 const MAX_NAMED: usize = 10;

@@ -1,7 +1,9 @@
 //! Scheduling: tasks and their work units, shards, checkpoints, merges and plans. No physics.
 
+pub mod assemble;
 pub mod bench;
 pub mod checkpoint;
+pub mod layout;
 pub mod merge;
 pub mod out_dir;
 pub mod plan;

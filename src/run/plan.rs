@@ -13,8 +13,8 @@ use std::time::Instant;
 
 use crate::film::directions::{render_directions, render_directions_all};
 use crate::job::{Job, Sensor, Task};
+use crate::run::layout::Layout;
 use crate::run::shard::Shard;
-use crate::run::work_unit::Layout;
 use crate::sampling::stream::Render;
 use crate::sensor::direction::Direction;
 
@@ -254,7 +254,7 @@ pub fn units(job: &Job, shards: u64) -> u64 {
 /// and the rest.
 pub fn unit_memory_mib(job: &Job) -> u64 {
     let task = &job.tasks[0];
-    let layout = crate::run::work_unit::Layout::new(job, task, job.spectral_scene(task).is_some());
+    let layout = crate::run::layout::Layout::new(job, task, job.spectral_scene(task).is_some());
     let tallies: u64 = (0..layout.estimates.len()).map(|e| layout.tallies(e) as u64).sum();
     let bytes = tallies * std::mem::size_of::<crate::film::tally::Tally>() as u64 * 2 + layout.pixels as u64 * 8;
     256 + bytes.div_ceil(1 << 20) * 5 / 4

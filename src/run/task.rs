@@ -9,8 +9,9 @@ use crate::error::Result;
 use crate::film::image::SkyImage;
 use crate::film::results::RenderResult;
 use crate::job::{Job, Task};
+use crate::run::layout::{Layout, UnitState};
 use crate::run::shard::Shard;
-use crate::run::work_unit::{self, Control, Layout, Outcome, UnitState};
+use crate::run::work_unit::{self, Control, Outcome};
 use crate::sensor::camera::Camera;
 
 /// Renders every estimate of `task` (all its wavelengths and albedos);
@@ -48,7 +49,7 @@ fn render_whole(
 /// Renders a task of a `directions` sensor: radiances and fluxes.
 pub fn render_directions(job: &Job, task: &Task, log: &dyn Fn(&str)) -> Result<RenderResult> {
     let (layout, state) = render_whole(job, task, &|_| {}, log)?;
-    Ok(work_unit::directions_result(job, task, &layout, &state))
+    Ok(crate::run::assemble::directions_result(job, task, &layout, &state))
 }
 
 /// Renders a task of an image sensor with `camera`: every (albedo,
@@ -61,5 +62,5 @@ pub fn render_image(
     log: &dyn Fn(&str),
 ) -> Result<SkyImage> {
     let (layout, state) = render_whole(job, task, progress, log)?;
-    Ok(work_unit::image_result(job, camera, &layout, &state))
+    Ok(crate::run::assemble::image_result(job, camera, &layout, &state))
 }

@@ -15,7 +15,7 @@ use crate::io::output::{self};
 use crate::io::sky_image;
 use crate::io::sun_table::{SUN_FILE, sun_csv};
 use crate::job::{Job, Sensor, Task};
-use crate::run::work_unit::{self, Layout, UnitState};
+use crate::run::layout::{Layout, UnitState};
 
 /// The metadata file of a task.
 pub const TASK_FILE: &str = "task.toml";
@@ -34,7 +34,7 @@ pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     let non_finite = state.non_finite(layout);
     let note = match &job.render.sensor {
         Sensor::Directions(_) => {
-            let result = work_unit::directions_result(job, task, layout, state);
+            let result = crate::run::assemble::directions_result(job, task, layout, state);
             write_atomic(
                 &dir.join("radiance.csv"),
                 output::radiance_csv(&result.radiance).as_bytes(),
@@ -48,7 +48,7 @@ pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitSt
             String::new()
         }
         Sensor::Image(camera) => {
-            let image = work_unit::image_result(job, camera, layout, state);
+            let image = crate::run::assemble::image_result(job, camera, layout, state);
             sky_image::write(dir, job, task, camera, &image)?
                 .map_or(String::new(), |e| format!(" (preview exposure {e:.4e})"))
         }

@@ -1,0 +1,115 @@
+//! A task's results from its sums: radiance and flux rows of a
+//! `directions` sensor, the layers of an image.
+
+use crate::film::fluxes::Fluxes;
+use crate::film::image::SkyImage;
+use crate::film::image::{self, ImageLayer};
+use crate::film::results::RenderResult;
+use crate::film::results::{FluxRow, RadianceRow};
+use crate::film::tally::Tally;
+use crate::job::{Job, Sensor, Task};
+use crate::run::layout::{EstimateKind, Layout, UnitState};
+use crate::sampling::stream::Channels;
+use crate::sensor::camera::Camera;
+
+/// A task's sums as a `directions` result: radiance rows (wavelength,
+/// albedo, direction) and flux rows (wavelength, albedo).
+pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitState) -> RenderResult {
+    let spec = &job.render;
+    let Sensor::Directions(directions) = &spec.sensor else {
+        return RenderResult::default();
+    };
+    let na = spec.albedos.len();
+    let mut radiance: Vec<Vec<Vec<Tally>>> = vec![vec![Vec::new(); na]; job.wavelengths_nm.len()];
+    let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
+    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+        match est.kind {
+            EstimateKind::Direction { channels, .. } => match channels {
+                Channels::Shared => {
+                    for (w, per_albedo) in radiance.iter_mut().enumerate() {
+                        for (a, list) in per_albedo.iter_mut().enumerate() {
+                            list.push(tallies[w * na + a]);
+                        }
+                    }
+                }
+                Channels::One(w) => {
+                    for (a, list) in radiance[w].iter_mut().enumerate() {
+                        list.push(tallies[a]);
+                    }
+                }
+            },
+            EstimateKind::Flux { channels, up } => match channels {
+                Channels::Shared => {
+                    for (w, f) in flux.iter_mut().enumerate() {
+                        f[up as usize] = tallies[w * na..(w + 1) * na].to_vec();
+                    }
+                }
+                Channels::One(w) => flux[w][up as usize] = tallies.clone(),
+            },
+            EstimateKind::Pixels { .. } => {}
+        }
+    }
+    let mut result = RenderResult::default();
+    let band_scene = (spec.fluxes && job.banded())
+        .then(|| job.spectral_scene(task))
+        .flatten();
+    for (w, &wavelength_nm) in job.wavelengths_nm.iter().enumerate() {
+        let k = job.unit_scale(wavelength_nm);
+        let altitude_km = task.observer_altitude_km;
+        let e_dir = spec.fluxes.then(|| {
+            k * match &band_scene {
+                // A band's direct irradiance is its band average.
+                Some(scene) => scene.direct_horizontal(altitude_km, w),
+                None => job.scene_for(task, w).direct_horizontal(altitude_km, 0),
+            }
+        });
+        for (a, &albedo) in spec.albedos.iter().enumerate() {
+            for (direction, tally) in directions.iter().zip(&radiance[w][a]) {
+                result.radiance.push(RadianceRow {
+                    wavelength_nm,
+                    albedo,
+                    direction: *direction,
+                    tally: tally.scaled(k),
+                });
+            }
+            if let Some(e_dir) = e_dir {
+                result.fluxes.push(FluxRow {
+                    wavelength_nm,
+                    albedo,
+                    altitude_km: task.observer_altitude_km,
+                    fluxes: Fluxes::new(e_dir, &flux[w][0][a].scaled(k), &flux[w][1][a].scaled(k)),
+                });
+            }
+        }
+    }
+    result
+}
+
+/// A task's sums as an image: one layer per (wavelength, albedo).
+pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitState) -> SkyImage {
+    let (width, height) = camera.size();
+    let spec = &job.render;
+    let na = spec.albedos.len();
+    let mut layers = Vec::new();
+    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+        let EstimateKind::Pixels { channels } = est.kind else {
+            continue;
+        };
+        let (per_value, non_finite) = image::split_values(tallies, est.values);
+        let wavelengths: Vec<usize> = match channels {
+            Channels::Shared => (0..job.wavelengths_nm.len()).collect(),
+            Channels::One(w) => vec![w],
+        };
+        for (k, &w) in wavelengths.iter().enumerate() {
+            for (a, &albedo) in spec.albedos.iter().enumerate() {
+                layers.push(ImageLayer::from_tallies(
+                    job.wavelengths_nm[w],
+                    albedo,
+                    &per_value[k * na + a],
+                    if k == 0 && a == 0 { non_finite } else { 0 },
+                ));
+            }
+        }
+    }
+    SkyImage { width, height, layers }
+}

@@ -1,0 +1,307 @@
+//! The estimates of a task, in a fixed order (per viewing direction, per
+//! flux hemisphere, or every pixel of an image; for all channels along
+//! shared paths or one channel alone), their stream keys and sample ranges
+//! per shard, and the state of a unit's sums ([`UnitState`]).
+
+use crate::film::image::ActivePixels;
+use crate::film::tally::{self, BLOCK, Tally};
+use crate::job::{Job, Sensor, Task};
+use crate::run::shard::Shard;
+use crate::sampling::stream::{self, Channels, Render, StreamKey};
+
+/// What an estimate measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EstimateKind {
+    /// The radiance of viewing direction `direction` (index).
+    Direction { channels: Channels, direction: usize },
+    /// The downward (`up` false) or upward irradiance: at one
+    /// wavelength, or at every channel along shared paths (bands, whose
+    /// wavelengths vary per path).
+    Flux { channels: Channels, up: bool },
+    /// Every pixel of the image.
+    Pixels { channels: Channels },
+}
+
+impl EstimateKind {
+    /// The wavelengths the estimate's paths carry.
+    pub fn channels(&self) -> Channels {
+        match *self {
+            EstimateKind::Direction { channels, .. }
+            | EstimateKind::Flux { channels, .. }
+            | EstimateKind::Pixels { channels } => channels,
+        }
+    }
+}
+
+/// One estimate of a task: its kind, its stream key and the number of
+/// values each sample gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub kind: EstimateKind,
+    pub key: StreamKey,
+    pub values: usize,
+}
+
+/// The estimates of a task, in a fixed order.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    pub estimates: Vec<Estimate>,
+    /// Samples per direction or pixel of the whole task.
+    pub samples: u64,
+    /// Pixels of an image sensor (0 for directions).
+    pub pixels: usize,
+    /// The pixels that are traced (image sensors): how many paths a range
+    /// of items holds (see [`ActivePixels`]).
+    pub active: Option<ActivePixels>,
+    /// True when the wavelengths share their paths.
+    pub shared: bool,
+    /// Paths of the first wave (a wave: blocks of one direction, or the
+    /// same number of samples for every pixel); checkpoints and stop
+    /// requests are honoured between waves.
+    pub wave_paths: u64,
+    /// Resize waves to last about [`WAVE_SECONDS`] from the measured rate
+    /// (the partition into waves never changes the sums).
+    pub adaptive_waves: bool,
+}
+
+impl Layout {
+    /// The estimates of `task`; `spectral` tells whether the job's
+    /// wavelengths share paths for this task (`job.spectral_scene(task)`).
+    pub fn new(job: &Job, task: &Task, shared: bool) -> Layout {
+        let spec = &job.render;
+        let (nw, na) = (job.wavelengths_nm.len(), spec.albedos.len());
+        let seed = spec.seed;
+        let mut estimates = Vec::new();
+        let (mut pixels, mut active) = (0, None);
+        match &spec.sensor {
+            Sensor::Directions(directions) => {
+                if shared {
+                    for d in 0..directions.len() {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::Direction {
+                                channels: Channels::Shared,
+                                direction: d,
+                            },
+                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::Direction(d)),
+                            values: nw * na,
+                        });
+                    }
+                }
+                let shared_fluxes = shared && job.banded();
+                if spec.fluxes && shared_fluxes {
+                    for up in [false, true] {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::Flux {
+                                channels: Channels::Shared,
+                                up,
+                            },
+                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::flux(up)),
+                            values: nw * na,
+                        });
+                    }
+                }
+                for w in 0..nw {
+                    if !shared {
+                        for d in 0..directions.len() {
+                            estimates.push(Estimate {
+                                kind: EstimateKind::Direction {
+                                    channels: Channels::One(w),
+                                    direction: d,
+                                },
+                                key: StreamKey::new(
+                                    seed,
+                                    Render::channel(task.index, w),
+                                    stream::Estimate::Direction(d),
+                                ),
+                                values: na,
+                            });
+                        }
+                    }
+                    if spec.fluxes && !shared_fluxes {
+                        for up in [false, true] {
+                            estimates.push(Estimate {
+                                kind: EstimateKind::Flux {
+                                    channels: Channels::One(w),
+                                    up,
+                                },
+                                key: StreamKey::new(seed, Render::channel(task.index, w), stream::Estimate::flux(up)),
+                                values: na,
+                            });
+                        }
+                    }
+                }
+            }
+            Sensor::Image(camera) => {
+                let traced = ActivePixels::new(camera);
+                pixels = traced.pixels() as usize;
+                active = Some(traced);
+                let channel_sets: Vec<Channels> = if shared {
+                    vec![Channels::Shared]
+                } else {
+                    (0..nw).map(Channels::One).collect()
+                };
+                for channels in channel_sets {
+                    estimates.push(Estimate {
+                        kind: EstimateKind::Pixels { channels },
+                        key: StreamKey::new(
+                            seed,
+                            Render::Task {
+                                task: task.index,
+                                channels,
+                            },
+                            stream::Estimate::Pixel(0),
+                        ),
+                        values: match channels {
+                            Channels::Shared => nw * na,
+                            Channels::One(_) => na,
+                        },
+                    });
+                }
+            }
+        }
+        Layout {
+            estimates,
+            samples: spec.samples,
+            pixels,
+            active,
+            shared,
+            wave_paths: 1 << 15,
+            adaptive_waves: true,
+        }
+    }
+
+    /// The work of estimate `e` in `shard`: sample blocks of a direction or
+    /// flux; the items of an image (its samples per pixel × its pixels, see
+    /// [`ActivePixels`]).
+    pub fn range(&self, e: usize, shard: Shard) -> std::ops::Range<u64> {
+        match self.estimates[e].kind {
+            EstimateKind::Pixels { .. } => {
+                let samples = shard.range(self.samples);
+                let p = self.pixels as u64;
+                samples.start * p..samples.end * p
+            }
+            _ => shard.range(self.samples.div_ceil(BLOCK)),
+        }
+    }
+
+    /// Tallies an estimate keeps: one per value (per pixel for images).
+    pub fn tallies(&self, e: usize) -> usize {
+        let est = &self.estimates[e];
+        match est.kind {
+            EstimateKind::Pixels { .. } => est.values * self.pixels,
+            _ => est.values,
+        }
+    }
+
+    /// Paths a shard traces along shared spectral paths (every channel at
+    /// once) and at single wavelengths, in that order: the two cost
+    /// differently per path (`plan`).
+    pub fn paths_by_channels(&self, shard: Shard) -> (u64, u64) {
+        let mut paths = (0, 0);
+        for (e, estimate) in self.estimates.iter().enumerate() {
+            let n = self.paths_of(e, &self.range(e, shard));
+            match estimate.kind.channels() {
+                Channels::Shared => paths.0 += n,
+                Channels::One(_) => paths.1 += n,
+            }
+        }
+        paths
+    }
+
+    /// Paths a shard traces in all.
+    pub fn paths(&self, shard: Shard) -> u64 {
+        (0..self.estimates.len())
+            .map(|e| self.paths_of(e, &self.range(e, shard)))
+            .sum()
+    }
+
+    /// Paths `state` has traced so far.
+    pub fn done_paths(&self, state: &UnitState) -> u64 {
+        (0..self.estimates.len())
+            .map(|e| {
+                let start = self.range(e, state.shard).start;
+                self.paths_of(e, &(start..start + state.done[e]))
+            })
+            .sum()
+    }
+
+    /// Paths of `work` (a part of [`Layout::range`]) of estimate `e`.
+    pub(crate) fn paths_of(&self, e: usize, work: &std::ops::Range<u64>) -> u64 {
+        match self.estimates[e].kind {
+            EstimateKind::Pixels { .. } => self.active.as_ref().map_or(0, |a| a.paths(work)),
+            _ => tally::block_samples(work, self.samples),
+        }
+    }
+
+    /// An empty state for `shard` of `task`.
+    pub fn empty_state(&self, job: &Job, task: &Task, shard: Shard) -> UnitState {
+        UnitState {
+            job_hash: job.hash.clone(),
+            task: task.index,
+            shard,
+            done: vec![0; self.estimates.len()],
+            tallies: (0..self.estimates.len())
+                .map(|e| vec![Tally::default(); self.tallies(e)])
+                .collect(),
+        }
+    }
+
+    /// True when `state` has the shape of this layout.
+    pub fn fits(&self, state: &UnitState) -> bool {
+        state.done.len() == self.estimates.len()
+            && state.tallies.len() == self.estimates.len()
+            && state
+                .tallies
+                .iter()
+                .enumerate()
+                .all(|(e, t)| t.len() == self.tallies(e))
+            && state
+                .done
+                .iter()
+                .enumerate()
+                .all(|(e, &d)| d <= self.range(e, state.shard).end - self.range(e, state.shard).start)
+    }
+}
+
+/// The sums of a unit so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnitState {
+    pub job_hash: String,
+    pub task: usize,
+    pub shard: Shard,
+    /// Per estimate: blocks (directions, fluxes) or items (images: samples
+    /// × pixels, see [`ActivePixels`]) done, counted from the start of the
+    /// shard's range.
+    pub done: Vec<u64>,
+    /// Per estimate: the running sums, one per value (pixel-major for
+    /// images: the values of pixel 0, then of pixel 1, …).
+    pub tallies: Vec<Vec<Tally>>,
+}
+
+impl UnitState {
+    /// True when every estimate has done its whole range.
+    pub fn is_complete(&self, layout: &Layout) -> bool {
+        self.done
+            .iter()
+            .enumerate()
+            .all(|(e, &d)| d == layout.range(e, self.shard).end - layout.range(e, self.shard).start)
+    }
+
+    /// Samples that gave a non-finite value (counted once per path).
+    pub fn non_finite(&self, layout: &Layout) -> u64 {
+        self.tallies
+            .iter()
+            .zip(&layout.estimates)
+            .map(|(t, est)| t.iter().step_by(est.values.max(1)).map(|x| x.non_finite).sum::<u64>())
+            .sum()
+    }
+
+    /// Adds another shard's sums (same task and layout) to these.
+    pub fn add(&mut self, other: &UnitState) {
+        for (a, b) in self.tallies.iter_mut().zip(&other.tallies) {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.merge(y);
+            }
+        }
+    }
+}
