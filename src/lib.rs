@@ -18,6 +18,7 @@ pub mod atmosphere;
 pub mod compat;
 pub mod error;
 pub mod film;
+pub mod fnv;
 pub mod geometry;
 pub mod io;
 pub mod job;

@@ -36,8 +36,9 @@ use std::time::{Duration, Instant};
 use atmosim::Error;
 use atmosim::compat::uvspec::{IGNORED_KEYWORDS, NUMERICAL_KEYWORDS, UvspecInput};
 use atmosim::film::tally::Tally;
+use atmosim::fnv;
 use atmosim::io::exr::{Channel, read_exr_bytes, write_exr};
-use atmosim::job::{Job, fnv1a};
+use atmosim::job::Job;
 use atmosim::run::checkpoint::{StateFile, shard_path, write_state};
 use atmosim::run::layout::Layout;
 use atmosim::run::shard::Shard;
@@ -862,7 +863,7 @@ const COLUMNS: &[&str] = &[
     "lambda", "zout", "edir", "edn", "eup", "uavg", "uu", "u0u", "umu", "phi", "sza", "bogus",
 ];
 
-/// The keywords of the uvspec subset (src/uvspec/mod.rs).
+/// The keywords of the uvspec subset (src/compat/uvspec/input.rs).
 const KEYWORDS: &[&str] = &[
     "atmosphere_file",
     "albedo",
@@ -1049,7 +1050,7 @@ fn uvspec_inputs() {
 // State files
 
 /// FNV-1a over little-endian 8-byte words: the state format's checksum
-/// (src/checkpoint.rs, module docs).
+/// (src/run/checkpoint.rs, module docs).
 fn checksum(words: &[u8]) -> u64 {
     words.chunks_exact(8).fold(0xcbf2_9ce4_8422_2325, |h, w| {
         (h ^ u64::from_le_bytes(w.try_into().unwrap())).wrapping_mul(0x0000_0100_0000_01b3)
@@ -1261,7 +1262,7 @@ fn state_bytes(input: &StateInput, files: &[StateFile]) -> Vec<u8> {
                     StateEdit::JobText(i, rehash) => {
                         f.job_text = STATE_JOBS[i.index(STATE_JOBS.len())].to_string();
                         if *rehash {
-                            s.job_hash = format!("{:016x}", fnv1a(f.job_text.as_bytes()));
+                            s.job_hash = format!("{:016x}", fnv::bytes(f.job_text.as_bytes()));
                         }
                     }
                     StateEdit::JobHash(h) => s.job_hash = h.clone(),

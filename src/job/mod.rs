@@ -453,7 +453,7 @@ impl Job {
             render,
             transmittance,
             solar,
-            hash: format!("{:016x}", fnv1a(text.as_bytes())),
+            hash: format!("{:016x}", crate::fnv::bytes(text.as_bytes())),
             text: text.to_string(),
             dir: dir.to_path_buf(),
         };
@@ -461,11 +461,4 @@ impl Job {
         job.check_source(&ctx)?;
         Ok(job)
     }
-}
-
-/// FNV-1a, 64 bit (Fowler, Noll & Vo): a stable hash of the job text.
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-    })
 }

@@ -21,6 +21,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::fnv;
 use crate::job::Job;
 use std::io::Write;
 
@@ -64,7 +65,7 @@ impl StateFile {
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut e = Encoder {
             w: Vec::new(),
-            hash: FNV_OFFSET,
+            hash: fnv::OFFSET,
             bytes: 0,
         };
         encode(&mut e, &self.job_file, &self.job_dir, &self.job_text, &self.state).expect("writing to memory");
@@ -89,7 +90,7 @@ impl StateFile {
             return Err(bad("no atmosim state header"));
         }
         let (body, tail) = bytes.split_at(bytes.len() - 8);
-        if body.len() % 8 != 0 || checksum(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
+        if body.len() % 8 != 0 || fnv::words(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
             return Err(bad("checksum mismatch: truncated or damaged"));
         }
         let mut r = Reader {
@@ -179,7 +180,7 @@ pub fn write_state(job: &Job, state: &UnitState, path: &Path) -> Result<u64> {
     write_atomic_with(path, |w| {
         let mut e = Encoder {
             w: std::io::BufWriter::with_capacity(1 << 20, w),
-            hash: FNV_OFFSET,
+            hash: fnv::OFFSET,
             bytes: 0,
         };
         encode(&mut e, &job.file, &job.dir, &job.text, state)?;
@@ -222,9 +223,6 @@ fn encode<W: Write>(
     Ok(())
 }
 
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
-
 /// Writes little-endian words and hashes them (FNV-1a over words).
 struct Encoder<W: Write> {
     w: W,
@@ -234,7 +232,7 @@ struct Encoder<W: Write> {
 
 impl<W: Write> Encoder<W> {
     fn word(&mut self, v: u64) -> std::io::Result<()> {
-        self.hash = (self.hash ^ v).wrapping_mul(FNV_PRIME);
+        self.hash = fnv::step(self.hash, v);
         self.bytes += 8;
         self.w.write_all(&v.to_le_bytes())
     }
@@ -269,13 +267,6 @@ pub fn shard_path(task_dir: &Path, shard: Shard) -> PathBuf {
 
 /// The extension of finished shard files.
 pub const SHARD_EXTENSION: &str = "shard";
-
-/// FNV-1a over little-endian 8-byte words (`bytes.len()` a multiple of 8).
-fn checksum(bytes: &[u8]) -> u64 {
-    bytes.chunks_exact(8).fold(FNV_OFFSET, |h, w| {
-        (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes"))).wrapping_mul(FNV_PRIME)
-    })
-}
 
 struct Reader<'a> {
     bytes: &'a [u8],

@@ -5,10 +5,8 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::job::Job;
+use crate::physics::constants::DOBSON_UNIT_CM2;
 use crate::sensor::direction::Direction;
-
-/// Dobson unit: molecules per cm² (2.6867e16).
-const DU_PER_CM2: f64 = 2.686_7e16;
 
 /// Keywords that only tune a numerical solver: accepted with a warning.
 pub const NUMERICAL_KEYWORDS: &[&str] = &[
@@ -354,7 +352,7 @@ impl UvspecInput {
                     let column = line.number(1)?;
                     let du = match line.args[2] {
                         "DU" | "du" => column,
-                        "CM_2" | "cm_2" => column / DU_PER_CM2,
+                        "CM_2" | "cm_2" => column / DOBSON_UNIT_CM2,
                         u => return Err(line.err(format!("`mol_modify`: unit `{u}` (valid: DU, CM_2)"))),
                     };
                     match line.args[0].to_ascii_uppercase().as_str() {
