@@ -722,7 +722,7 @@ fn s7_absolute_units_scale_by_the_extraterrestrial_irradiance_at_output() {
     assert_eq!(absolute.unit_scale(550.0), e0);
     // The scene itself stays normalised (the tracer weights by the source
     // only for bands, whose average of E0·L is not a product).
-    assert!(!absolute.tracer_weights_by_source());
+    assert!(!absolute.tracer_weights_by_solar());
 }
 
 // §8 Fluxes

@@ -11,7 +11,7 @@ use crate::io::atomic::write_atomic;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
 use crate::io::preview::{srgb_preview, write_png};
 use crate::io::sun_table::{SUN_FILE, sun_csv};
-use crate::job::{AtmosphereSource, Job, Task, Units};
+use crate::job::{AtmosphereSource, Job, RadianceUnits, Task};
 use crate::sensor::camera::{Camera, PixelFilter};
 
 /// The file an image task writes its Stokes images to.
@@ -63,7 +63,7 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
     let (rgb, exposure) = srgb_preview(&wavelengths, &spectra, spec.exposure);
     // The layers hold the tracer's radiance: per unit E0, or absolute
     // where the tracer weighted by E0 (bands, see `Job::unit_scale`).
-    let units = if job.tracer_weights_by_source() {
+    let units = if job.tracer_weights_by_solar() {
         "absolute radiance (W m-2 sr-1 nm-1)"
     } else {
         "radiance per unit E0"
@@ -136,8 +136,8 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         AtmosphereSource::Layers => ("explicit layers".into(), "explicit layers".into()),
     };
     let units = match spec.units {
-        Units::Normalized => "radiance per unit solar irradiance, 1/sr",
-        Units::Absolute => "W m-2 sr-1 nm-1 (radiance per unit E0 x Kurucz 1992 extraterrestrial irradiance)",
+        RadianceUnits::Normalized => "radiance per unit solar irradiance, 1/sr",
+        RadianceUnits::Absolute => "W m-2 sr-1 nm-1 (radiance per unit E0 x Kurucz 1992 extraterrestrial irradiance)",
     };
     vec![
         ("atmosim_version".into(), env!("CARGO_PKG_VERSION").into()),

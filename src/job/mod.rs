@@ -38,7 +38,7 @@ pub mod spectrum;
 pub mod transmittance;
 
 pub use raw::GeometryKind;
-pub use render::{RenderSpec, Sensor, Units};
+pub use render::{RadianceUnits, RenderSpec, Sensor};
 
 // Resolved job
 
@@ -178,7 +178,7 @@ impl Job {
     /// Whether the tracer itself weights each path by E0 at the
     /// wavelengths it drew: bands in absolute units (the band average of
     /// E0·L is not the product of the averages).
-    pub fn tracer_weights_by_source(&self) -> bool {
+    pub fn tracer_weights_by_solar(&self) -> bool {
         self.solar.is_some() && self.banded()
     }
 
@@ -187,14 +187,14 @@ impl Job {
     /// already; 1 for normalised units.
     pub fn unit_scale(&self, lambda_nm: f64) -> f64 {
         match &self.solar {
-            Some(solar) if !self.tracer_weights_by_source() => solar.irradiance(lambda_nm).unwrap_or(0.0),
+            Some(solar) if !self.tracer_weights_by_solar() => solar.irradiance(lambda_nm).unwrap_or(0.0),
             _ => 1.0,
         }
     }
 
     /// Checks that absolute units have the irradiance at every channel's
     /// wavelengths (band edges included).
-    fn check_source(&self, ctx: &Ctx) -> Result<()> {
+    fn check_solar_range(&self, ctx: &Ctx) -> Result<()> {
         let Some(solar) = &self.solar else { return Ok(()) };
         let (lo, hi) = solar.range_nm();
         for (&l, &w) in self.wavelengths_nm.iter().zip(&self.band_widths_nm) {
@@ -426,8 +426,8 @@ impl Job {
         let observer_altitude_km = tasks[0].observer_altitude_km;
 
         let solar = match render.units {
-            Units::Absolute => Some(Arc::new(SolarSpectrum::kurucz()?)),
-            Units::Normalized => None,
+            RadianceUnits::Absolute => Some(Arc::new(SolarSpectrum::kurucz()?)),
+            RadianceUnits::Normalized => None,
         };
         let transmittance = transmittance::resolve(
             &ctx,
@@ -458,7 +458,7 @@ impl Job {
             dir: dir.to_path_buf(),
         };
         job.check_bands(&ctx)?;
-        job.check_source(&ctx)?;
+        job.check_solar_range(&ctx)?;
         Ok(job)
     }
 }

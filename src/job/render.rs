@@ -37,7 +37,7 @@ pub enum Sensor {
 
 /// Output radiance units (closed set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Units {
+pub enum RadianceUnits {
     /// Per unit extraterrestrial solar irradiance (E0 = 1), sr⁻¹.
     Normalized,
     /// × the Kurucz solar irradiance: W m⁻² sr⁻¹ nm⁻¹.
@@ -70,7 +70,7 @@ pub struct RenderSpec {
     pub output_directory: PathBuf,
     /// Write the transmitted direct sun per wavelength.
     pub output_sun: bool,
-    pub units: Units,
+    pub units: RadianceUnits,
     /// Write PNG previews of images.
     pub preview: bool,
     /// Preview exposure (multiplier before the sRGB curve); `None`: auto.
@@ -237,8 +237,8 @@ pub(super) fn resolve(
         output_directory: output.directory.unwrap_or_else(|| PathBuf::from("out")),
         output_sun: output.sun.unwrap_or(false),
         units: match output.units.unwrap_or(RawUnits::Normalized) {
-            RawUnits::Normalized => Units::Normalized,
-            RawUnits::Absolute => Units::Absolute,
+            RawUnits::Normalized => RadianceUnits::Normalized,
+            RawUnits::Absolute => RadianceUnits::Absolute,
         },
         preview: output.preview.unwrap_or(true),
         exposure,

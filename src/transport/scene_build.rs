@@ -48,7 +48,7 @@ impl Job {
         );
         let scene = if sun_aware { scene.with_sun_aware() } else { scene };
         match &self.solar {
-            Some(solar) if self.tracer_weights_by_source() => scene.with_source(solar.clone()),
+            Some(solar) if self.tracer_weights_by_solar() => scene.with_solar_weights(solar.clone()),
             _ => scene,
         }
     }

@@ -1,5 +1,5 @@
 //! The channels' optics on one path: each channel's term optics, its weights
-//! on the extinction basis and its source factor; σ_t, majorants and
+//! on the extinction basis and its solar factor; σ_t, majorants and
 //! coefficients per layer or point, and optical depths combined from the
 //! basis (τ_λ = Σ_b W_λb·τ_b).
 
@@ -16,13 +16,13 @@ use super::scene::Scene;
 use super::spectra::{Basis, ChannelSpectra};
 
 impl Scene {
-    /// Fills the spectra's source factors for the channels' wavelengths
+    /// Fills the spectra's solar factors for the channels' wavelengths
     /// `lambda(channel)`.
-    pub(super) fn refresh_source(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
-        spectra.source.clear();
+    pub(super) fn refresh_solar(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
+        spectra.solar.clear();
         spectra
-            .source
-            .extend((0..self.channels.len()).map(|w| match &self.source {
+            .solar
+            .extend((0..self.channels.len()).map(|w| match &self.solar {
                 Some(solar) => solar.irradiance(lambda(w)).unwrap_or(0.0),
                 None => 1.0,
             }));
@@ -62,7 +62,7 @@ impl Scene {
                 .responses_into(lambda(w), &mut spectra.responses[w * t..(w + 1) * t]);
         }
         self.refresh_weights(spectra);
-        self.refresh_source(spectra, lambda);
+        self.refresh_solar(spectra, lambda);
     }
 
     /// σ_t of channel `w` in `layer`.

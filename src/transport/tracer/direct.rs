@@ -14,7 +14,7 @@ use super::vertex::sun_ray;
 
 impl Scene {
     /// The direct solar irradiance on a horizontal plane at the observer
-    /// in channel `w`: μ0·T(λ) (times the source at λ, when radiances are
+    /// in channel `w`: μ0·T(λ) (times E0 at λ, when radiances are
     /// weighted by one), averaged over the band by the composite midpoint
     /// rule on cells of at most [`DIRECT_CELL_NM`] (the ozone data's
     /// spacing is 0.1 nm); a monochromatic channel's value at its
@@ -30,8 +30,8 @@ impl Scene {
     }
 
     /// The direct beam at the observer in channel `w`, normal to it: the
-    /// band average of T(λ), times the source at λ with `weighted` and a
-    /// source spectrum (as [`Scene::direct_horizontal`]); 0 for a
+    /// band average of T(λ), times E0 at λ with `weighted` and a
+    /// solar spectrum (as [`Scene::direct_horizontal`]); 0 for a
     /// sun below the observer's horizon or behind the planet.
     pub fn direct_normal(&self, altitude_km: f64, w: usize, weighted: bool) -> f64 {
         let origin = self.geometry.observer_position(altitude_km);
@@ -96,17 +96,17 @@ impl Scene {
     }
 
     /// The band average over channel `w` of e^(−Σ_t response_t(λ)·column_t)
-    /// (times the source at λ with `weighted` and a source spectrum), by
+    /// (times E0 at λ with `weighted` and a solar spectrum), by
     /// the composite midpoint rule on cells of at most [`DIRECT_CELL_NM`]
     /// (the ozone data's spacing is 0.1 nm); a monochromatic channel's
     /// value at its wavelength.
     pub fn band_average(&self, w: usize, columns: &[f64], weighted: bool) -> f64 {
-        let source = self.source.as_ref().filter(|_| weighted).map(|solar| {
+        let solar = self.solar.as_ref().filter(|_| weighted).map(|solar| {
             self.cell_wavelengths(w)
                 .map(|lambda| solar.irradiance(lambda).unwrap_or(0.0))
                 .collect::<Vec<f64>>()
         });
-        Scene::band_average_of(&self.band_cells(w), columns, source.as_deref())
+        Scene::band_average_of(&self.band_cells(w), columns, solar.as_deref())
     }
 
     /// The midpoints of channel `w`'s cells (its wavelength alone for a
@@ -131,8 +131,8 @@ impl Scene {
 
     /// The mean over a band's cells (responses from
     /// [`Scene::band_cells`]) of e^(−Σ response·column), each cell
-    /// times its `source` value when given.
-    pub fn band_average_of(cells: &[f64], columns: &[f64], source: Option<&[f64]>) -> f64 {
+    /// times its `solar` factor when given.
+    pub fn band_average_of(cells: &[f64], columns: &[f64], solar: Option<&[f64]>) -> f64 {
         let t = columns.len().max(1);
         let n = (cells.len() / t).max(1);
         let sum: f64 = cells
@@ -140,7 +140,7 @@ impl Scene {
             .enumerate()
             .map(|(k, r)| {
                 let tau = r.iter().zip(columns).map(|(a, c)| a * c).sum::<f64>().max(0.0);
-                (-tau).exp() * source.map_or(1.0, |s| s[k])
+                (-tau).exp() * solar.map_or(1.0, |s| s[k])
             })
             .sum();
         sum / n as f64

@@ -8,7 +8,7 @@
 //! vector arriving at the current vertex, in the current reference frame,
 //! to the Stokes vector at the sensor in the frame of v
 //! (CONVENTIONS.md). Radiance is per unit solar irradiance normal to the
-//! beam (E0 = 1) unless a source spectrum weights it (`with_source`).
+//! beam (E0 = 1) unless the solar spectrum weights it (`with_solar_weights`).
 //!
 //! **What is shared and what is per channel.** The geometry of a path (its
 //! vertices, directions and Stokes frames) is shared; each channel has its

@@ -53,7 +53,7 @@ pub struct Scene {
     pub(super) fixed: Option<ChannelSpectra>,
     /// The extraterrestrial irradiance radiances are weighted by (absolute
     /// units); `None`: per unit E0.
-    pub(super) source: Option<Arc<SolarSpectrum>>,
+    pub(super) solar: Option<Arc<SolarSpectrum>>,
     /// Sun-aware connections along every flight (`None`: connections at
     /// collisions).
     pub(super) sun_follow: Option<SunFollow>,
@@ -145,7 +145,7 @@ impl Scene {
             basis_sigma,
             basis_steps,
             fixed: None,
-            source: None,
+            solar: None,
             sun_follow: None,
             shapes: medium.shapes,
             term_shapes,
@@ -157,7 +157,7 @@ impl Scene {
             let mut fixed = ChannelSpectra {
                 responses: centre,
                 weights: vec![0.0; n * b],
-                source: Vec::new(),
+                solar: Vec::new(),
                 sigma: Vec::new(),
                 coefficients: Vec::new(),
             };
@@ -172,20 +172,20 @@ impl Scene {
                     .map(|i| scene.coefficients(&fixed, i % layers, i / layers, 0.0))
                     .collect();
             }
-            scene.refresh_source(&mut fixed, |w| scene.channels[w].lambda_nm);
+            scene.refresh_solar(&mut fixed, |w| scene.channels[w].lambda_nm);
             scene.fixed = Some(fixed);
         }
         scene
     }
 
-    /// The scene with radiances weighted by `source` at each path's
+    /// The scene with radiances weighted by `solar` at each path's
     /// wavelengths: absolute units, band averages of E0(λ)·L(λ). Every
     /// channel's wavelengths must lie inside the spectrum (the job checks
-    /// it); outside, the source counts as 0.
-    pub fn with_source(mut self, source: Arc<SolarSpectrum>) -> Scene {
-        self.source = Some(source);
+    /// it); outside, E0 counts as 0.
+    pub fn with_solar_weights(mut self, solar: Arc<SolarSpectrum>) -> Scene {
+        self.solar = Some(solar);
         if let Some(mut fixed) = self.fixed.take() {
-            self.refresh_source(&mut fixed, |w| self.channels[w].lambda_nm);
+            self.refresh_solar(&mut fixed, |w| self.channels[w].lambda_nm);
             self.fixed = Some(fixed);
         }
         self

@@ -6,13 +6,13 @@ use crate::atmosphere::spectral_terms::TermOptics;
 
 /// What the channels' optics are on one path: each channel's term
 /// responses (`[channel·terms + term]`), extinction weights on the
-/// basis (`[channel·basis + b]`) and source factors (E0 at the channel's
-/// wavelength, or 1 without a source spectrum).
+/// basis (`[channel·basis + b]`) and solar factors (E0 at the channel's
+/// wavelength, or 1 without a solar spectrum).
 #[derive(Debug, Clone, Default)]
 pub(super) struct ChannelSpectra {
     pub(super) responses: Vec<TermOptics>,
     pub(super) weights: Vec<f64>,
-    pub(super) source: Vec<f64>,
+    pub(super) solar: Vec<f64>,
     /// Where every path shares them (monochromatic channels): each
     /// channel's σ_t per layer (`[channel·layers + layer]`; the layer mean in
     /// the smooth medium) and, in the layered medium, its coefficients per

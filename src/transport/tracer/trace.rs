@@ -63,10 +63,10 @@ impl Scene {
                 }
             }
             out.copy_from_slice(&path.radiance);
-            if self.source.is_some() {
+            if self.solar.is_some() {
                 for (w, per_albedo) in out.chunks_mut(albedos).enumerate() {
                     for s in per_albedo {
-                        *s = *s * spectra.source[w];
+                        *s = *s * spectra.solar[w];
                     }
                 }
             }
