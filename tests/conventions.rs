@@ -7,6 +7,9 @@
 //! in CONVENTIONS.md alone (the frame vectors, the Stokes parameters as
 //! polariser intensities, the Rayleigh and Henyey–Greenstein elements) and
 //! shares no code with the tracer.
+//!
+//! (Over 600 lines: one file so that CONVENTIONS.md has one place its
+//! sections are pinned, in its order.)
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2};
 use std::path::Path;

@@ -24,6 +24,9 @@
 //! aborts the run on every machine instead of succeeding where memory is
 //! overcommitted; a case that runs past [`HANG_LIMIT`] aborts it with the
 //! input.
+//!
+//! (Over 600 lines: one grammar per reader and the generators that damage
+//! it; the four readers share the harness that runs them.)
 
 use std::alloc::{GlobalAlloc, Layout as AllocLayout, System};
 use std::cell::Cell;

@@ -3,6 +3,9 @@
 //! SIGTERM, outputs that are never half-written, and the `plan --slurm`
 //! script run unit by unit (without SLURM: tests/slurm_e2e.rs submits it to a
 //! real one).
+//!
+//! (Over 600 lines: the jobs, the process helpers and the fault scenarios
+//! they share.)
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Process, Stdio};

@@ -24,6 +24,9 @@
 //!   the sign used here is derived from the intensity definitions above and
 //!   pinned by the tests below, which compute Stokes vectors of explicit
 //!   E-fields in both frames.
+//!
+//! (Over 600 lines with its unit tests, about 440 without: each matrix and
+//! rotation is tested beside it against a closed form.)
 
 use glam::DVec3;
 use std::ops::{Add, AddAssign, Mul, Sub};

@@ -20,6 +20,9 @@
 //! down from the top edge; pixel (i, j) covers [i, i+1) × [j, j+1). The
 //! Jacobian dΩ/dA (sr per pixel area) lets a pixel average radiance over its
 //! solid angle from samples uniform in its area.
+//!
+//! (Over 600 lines with its unit tests, about 430 without: every projection
+//! is tested beside it, pixel to direction and back.)
 
 use std::f64::consts::{FRAC_PI_2, PI, SQRT_2};
 

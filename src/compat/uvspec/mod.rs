@@ -15,6 +15,7 @@
 //! a horizontally homogeneous atmosphere is mirror-symmetric.
 
 mod input;
+mod job_map;
 mod output;
 
 pub use input::*;
