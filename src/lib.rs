@@ -9,10 +9,31 @@
 //! (E0 = 1, sr⁻¹); Stokes vectors (I, Q, U, V) in the meridian frame of the
 //! viewing direction, as IPRT and libRadtran/MYSTIC define them, or on
 //! request in the sun–view frame; an image pixel's in the frame of its
-//! centre carried over the pixel ([`stokes_frame`]).
+//! centre carried over the pixel ([`polarization::stokes_frame`]).
 //!
-//! Data flow: job file → [`job::Job`] → [`atmosphere::Atmosphere`] (optical
-//! properties per layer and wavelength) → sensor → integrator → film → output.
+//! The folders are the data flow: each imports only from those above it in
+//! this list (`tests/layering.rs` reads the imports and checks; `error` and
+//! `fnv` sit at the root, below everything):
+//!
+//! ```text
+//! physics/       constants, Rayleigh, ozone, OPAC aerosol, visibility, gas profiles,
+//!                the solar spectrum, and the embedded data tables they read
+//! polarization/  Stokes vectors, Mueller and phase matrices, Stokes frames
+//! geometry/      shells and slabs, rays and their walk, half chords, the sun
+//! sampling/      random streams and their typed keys
+//! atmosphere/    levels and one optics record per layer and wavelength; reports
+//! sensor/        viewing directions and cameras
+//! job/           job file → resolved, validated Job and its task grid
+//! transport/     medium, free flight, the path tracer, sun connections,
+//!                transmittance, and scenes built from a job
+//! film/          sums of samples: directions, fluxes, images, their results
+//! io/            CSV, OpenEXR, PNG previews, task files; atomic writes
+//! run/           work units, shards, checkpoints, merges, plans (no physics)
+//! compat/        uvspec input and output, validation against references
+//! ```
+//!
+//! The binary (`src/main.rs`, `src/cli/`) parses the command line, calls
+//! the library and maps errors to exit codes.
 
 pub mod atmosphere;
 pub mod compat;

@@ -11,6 +11,26 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+/// The library's folders in data-flow order (the crate docs' list): each may
+/// import only from folders before it, and from the root's files.
+const ORDER: [&str; 13] = [
+    "physics",
+    "polarization",
+    "geometry",
+    "sampling",
+    "atmosphere",
+    "sensor",
+    "job",
+    "transport",
+    "film",
+    "io",
+    "run",
+    "compat",
+    "cli",
+];
+/// The root's own files, which every folder may use.
+const ROOT: [&str; 3] = ["<root>", "error", "fnv"];
+
 /// Folders that hold physics, configuration and transport: none of them may
 /// import a folder of `DOWNSTREAM`.
 const UPSTREAM: [&str; 9] = [
@@ -340,7 +360,7 @@ fn check(entry: &str) {
         println!("  {:<13} → {}", folders[a], list.join(", "));
     }
     let folder_circles = circles(&folder_graph);
-    for c in &folder_circles {
+    if let Some(c) = folder_circles.first() {
         let names: Vec<&str> = c.iter().map(|&i| folders[i].as_str()).collect();
         let why = &why;
         let examples: Vec<&String> = c
@@ -363,6 +383,29 @@ fn check(entry: &str) {
         wrong.is_empty(),
         "{entry}: imports that run back up the data flow:\n{}",
         wrong.join("\n")
+    );
+    // Every folder in the order, every import toward an earlier one.
+    let rank = |f: &str| ORDER.iter().position(|x| *x == f);
+    let mut out_of_order = Vec::new();
+    for f in &folders {
+        if !ROOT.contains(&f.as_str()) && rank(f).is_none() {
+            out_of_order.push(format!("folder {f} is not in ORDER"));
+        }
+    }
+    for (&(a, b), example) in &why {
+        if ROOT.contains(&folders[b].as_str()) {
+            continue;
+        }
+        if let (Some(ra), Some(rb)) = (rank(&folders[a]), rank(&folders[b]))
+            && rb >= ra
+        {
+            out_of_order.push(format!("{} imports the later {}: {example}", folders[a], folders[b]));
+        }
+    }
+    assert!(
+        out_of_order.is_empty(),
+        "{entry}: against the data-flow order:\n{}",
+        out_of_order.join("\n")
     );
 }
 

@@ -1,4 +1,5 @@
-//! Speaking other tools' languages: libRadtran's uvspec input and output, and the validation cases against published and libRadtran references.
+//! Speaking other tools' languages: libRadtran's uvspec input and output, and
+//! the validation cases against published and libRadtran references.
 
 pub mod stats;
 pub mod uvspec;

@@ -1,4 +1,5 @@
-//! Where samples are summed: per direction or pixel, the Stokes sums and their estimates.
+//! Where samples are summed: per direction or pixel, the Stokes sums and
+//! their estimates.
 
 pub mod directions;
 pub mod fluxes;

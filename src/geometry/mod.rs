@@ -1,4 +1,5 @@
-//! The planet's geometry: spherical shells and rays through them, and the sun's direction and disc.
+//! The planet's geometry: spherical shells and rays through them, and the
+//! sun's direction and disc.
 
 pub mod chord_kernels;
 pub mod ray;

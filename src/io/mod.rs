@@ -1,4 +1,5 @@
-//! Files in and out: CSV tables, OpenEXR images, PNG previews; every file written atomically.
+//! Files in and out: CSV tables, OpenEXR images, PNG previews; every file
+//! written atomically.
 
 pub mod atomic;
 pub mod exr;

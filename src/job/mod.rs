@@ -3,6 +3,10 @@
 //!
 //! Every error names the file and the key, with the value and the valid
 //! range; TOML syntax and schema errors carry TOML's line and column.
+//!
+//! The job knows nothing of how it is rendered: the transport builds its
+//! scenes from a job (`transport::scene_build`), and the resolved
+//! transport options it holds (`options`) are plain values.
 
 use std::path::Path;
 use std::sync::Arc;

@@ -55,17 +55,13 @@ pub enum SunSampling {
     /// At the collision the path goes on from.
     Collision,
     /// At a point drawn from a density that follows the sunlit single
-    /// scattering along the flight (piecewise-constant media): 4.1–5.4×
-    /// the time per path of `Collision` in spherical geometry, and far less
-    /// noise for a set sun (`tests/twilight_sun_sampling.rs`).
+    /// scattering along the flight (piecewise-constant media): dearer per
+    /// path than `Collision`, far less noise for a set sun.
     SunAware,
     /// `SunAware` in plane-parallel geometry (where it costs little) and
-    /// for a sun lower than 10° above the horizon, else `Collision`. The
-    /// switch is where the measured efficiency of the two crosses over:
-    /// with the sun set, sun-aware is 3.9–7.0× as efficient at 420 nm and
-    /// 0.74–1.5× at 620 nm (median over directions); at 10° it is 0.40–0.51×
-    /// at 420 nm and 1.7–4.1× at 620 nm; at 20° 0.36–0.38× and 1.7–3.1×
-    /// (README, "Sun connections at twilight").
+    /// for a sun lower than 10° above the horizon, else `Collision`: where
+    /// the measured efficiencies of the two cross over (README, "Sun
+    /// connections at twilight").
     Auto,
 }
 

@@ -1,4 +1,6 @@
-//! The physics of air, ozone, aerosol and the sun, independent of any job: constants, cross sections, profiles, the solar spectrum and the data tables they are read from.
+//! The physics of air, ozone, aerosol and the sun, independent of any job:
+//! constants, cross sections, profiles, the solar spectrum and the data
+//! tables they are read from.
 
 pub mod aerosol;
 pub mod constants;

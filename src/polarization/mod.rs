@@ -1,4 +1,5 @@
-//! Polarisation: Stokes vectors, Mueller and phase matrices, and the frames Stokes vectors are given in.
+//! Polarisation: Stokes vectors, Mueller and phase matrices, and the frames
+//! Stokes vectors are given in.
 
 pub mod phase;
 pub mod stokes;

@@ -1,4 +1,5 @@
-//! Scheduling: tasks and their work units, shards, checkpoints, merges and plans. No physics.
+//! Scheduling: tasks and their work units, shards, checkpoints, merges and
+//! plans. No physics.
 
 pub mod assemble;
 pub mod bench;

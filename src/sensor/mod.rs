@@ -1,4 +1,5 @@
-//! Sensors: which directions a render looks along, and the Stokes frame each is reported in.
+//! Sensors: which directions a render looks along, and the Stokes frame each
+//! is reported in.
 
 pub mod camera;
 pub mod direction;

@@ -1,4 +1,5 @@
-//! Light transport: the medium a path sees, free flights through it, the polarised path tracer with its sun connections, and transmittance.
+//! Light transport: the medium a path sees, free flights through it, the
+//! polarised path tracer with its sun connections, and transmittance.
 
 pub mod flight_density;
 pub mod free_flight;
