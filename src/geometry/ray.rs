@@ -176,6 +176,19 @@ pub struct Collision {
     pub sigma_maj: f64,
 }
 
+/// A ray from altitude `z_km` above a 6378 km planet at `zenith_deg` in the
+/// x–z plane, in its layer of `levels` (tests).
+#[cfg(test)]
+pub(crate) fn test_slant_ray(zenith_deg: f64, z_km: f64, levels: &[f64]) -> Ray {
+    let th = zenith_deg.to_radians();
+    let dir = DVec3::new(th.sin(), 0.0, th.cos());
+    Ray {
+        origin: DVec3::new(0.0, 0.0, 6378.0 + z_km),
+        dir,
+        layer: layer_at(levels, z_km, dir.z).expect("a point inside the atmosphere"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -217,7 +217,6 @@ impl ShellExit {
 mod tests {
     use super::*;
     use std::ops::ControlFlow;
-    use std::path::Path;
 
     use glam::DVec3;
 
@@ -225,19 +224,12 @@ mod tests {
     use crate::geometry::ray::*;
     use crate::geometry::shell::Geometry;
 
-    use crate::job::Job;
     use crate::job::options::MediumModel;
     use crate::sampling::sampler::Sampler;
     use crate::transport::free_flight::*;
-    use crate::transport::medium::Medium;
+    use crate::transport::medium::test_medium as medium;
 
     const R: f64 = 6378.0;
-
-    fn medium(model: MediumModel, scale: f64) -> Medium {
-        let text = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [340.0]\n";
-        let atm = Job::parse(text, "t", Path::new(".")).unwrap().atmosphere;
-        Medium::new(&atm, 0, model, scale)
-    }
 
     #[test]
     fn closed_form_shell_depth_equals_the_walked_sum() {

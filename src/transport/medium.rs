@@ -257,6 +257,15 @@ pub(crate) fn density_steps(sigma: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The medium of the built-in profile atmosphere with OPAC
+/// continental_average at 340 nm (the tests' medium with aerosol and ozone).
+#[cfg(test)]
+pub(crate) fn test_medium(model: MediumModel, scale: f64) -> Medium {
+    let text = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [340.0]\n";
+    let job = crate::job::Job::parse(text, "t", std::path::Path::new(".")).expect("a valid job");
+    Medium::new(&job.atmosphere, 0, model, scale)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

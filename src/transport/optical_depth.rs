@@ -48,35 +48,17 @@ pub fn optical_depth_to(medium: &Medium, geometry: &Geometry, ray: &Ray, length:
 mod tests {
     use super::*;
 
-    use std::path::Path;
-
     use glam::DVec3;
 
+    use crate::geometry::ray::test_slant_ray as slant_ray;
     use crate::geometry::ray::*;
     use crate::geometry::shell::Geometry;
 
-    use crate::job::Job;
     use crate::job::options::MediumModel;
 
-    use crate::transport::medium::Medium;
+    use crate::transport::medium::test_medium as medium;
 
     const R: f64 = 6378.0;
-
-    fn medium(model: MediumModel, scale: f64) -> Medium {
-        let text = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [340.0]\n";
-        let atm = Job::parse(text, "t", Path::new(".")).unwrap().atmosphere;
-        Medium::new(&atm, 0, model, scale)
-    }
-
-    fn slant_ray(zenith_deg: f64, z_km: f64, levels: &[f64]) -> Ray {
-        let th = zenith_deg.to_radians();
-        let dir = DVec3::new(th.sin(), 0.0, th.cos());
-        Ray {
-            origin: DVec3::new(0.0, 0.0, R + z_km),
-            dir,
-            layer: layer_at(levels, z_km, dir.z).unwrap(),
-        }
-    }
 
     #[test]
     fn analytic_vertical_optical_depth_is_the_column() {
