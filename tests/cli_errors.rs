@@ -151,3 +151,32 @@ fn zero_threads_means_one_per_core_and_says_so() {
     let cores = std::thread::available_parallelism().unwrap().get();
     assert!(err.contains(&format!("on {cores} threads")), "{err}");
 }
+
+#[test]
+fn a_reader_that_has_gone_away_ends_the_output_quietly() {
+    // `atmosim validate --list | true`: stdout's reader is gone before the
+    // first line; the write fails with a broken pipe, which is not an error
+    // of the user's (exit 0, nothing on stderr), never a panic (exit 101).
+    let dir = tempfile::tempdir().unwrap();
+    let uvspec = dir.path().join("in.inp");
+    std::fs::write(
+        &uvspec,
+        "atmosphere_file afglus\nwavelength 500\nsza 30\numu -0.5\nphi 0\n",
+    )
+    .unwrap();
+    let commands: [&[&str]; 2] = [&["validate", "--list"], &["uvspec", "in.inp", "--print-job"]];
+    for args in commands {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = std::process::Command::new(assert_cmd::cargo::cargo_bin("atmosim"))
+            .current_dir(dir.path())
+            .args(args)
+            .stdout(writer)
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}

@@ -1,6 +1,7 @@
 //! Pieces the subcommands share: the worker pool, loading a job, the
-//! `--task` index and the `--samples 0` error.
+//! `--task` index, the `--samples 0` error and writing to stdout.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -63,4 +64,14 @@ pub fn no_samples() -> atmosim::Error {
         reason: "no samples".into(),
         valid: "at least 1".into(),
     }
+}
+
+/// Writes `text` to stdout. A reader that has gone away (`| head`) gives a
+/// broken-pipe error, which `main` ends quietly with success, where
+/// `print!` would panic.
+pub fn print_text(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .context("writing to stdout")
 }

@@ -7,6 +7,8 @@ use anyhow::Context;
 use atmosim::job::Job;
 use atmosim::run::plan;
 
+use super::common::print_text;
+
 #[derive(clap::Args)]
 pub struct PlanArgs {
     /// Job file (TOML).
@@ -137,7 +139,7 @@ fn write_slurm(
              per class of sun elevation) over {shards} shards on {cpus} cpus, plus 10 minutes"
         );
     }
-    println!("{}", path.display());
+    print_text(&format!("{}\n", path.display()))?;
     eprintln!(
         "{units} units ({} tasks × {shards} shards); submit with: sbatch {}",
         job.tasks.len(),

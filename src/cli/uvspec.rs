@@ -8,7 +8,7 @@ use anyhow::Context;
 use atmosim::compat::uvspec;
 use clap::ValueEnum;
 
-use super::common::{no_samples, thread_pool};
+use super::common::{no_samples, print_text, thread_pool};
 
 #[derive(clap::Args)]
 pub struct UvspecArgs {
@@ -50,7 +50,7 @@ pub fn run(args: UvspecArgs) -> anyhow::Result<()> {
         anyhow::bail!(no_samples());
     }
     if args.print_job {
-        print!("{}", input.job_toml(args.samples, args.seed, args.full_spherical));
+        print_text(&input.job_toml(args.samples, args.seed, args.full_spherical))?;
         return Ok(());
     }
     let job = input.job(args.samples, args.seed, args.full_spherical)?;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use atmosim::compat::validate;
 use atmosim::run::out_dir::Destination;
 
-use super::common::{no_samples, thread_pool};
+use super::common::{no_samples, print_text, thread_pool};
 
 #[derive(clap::Args)]
 pub struct ValidateArgs {
@@ -34,7 +34,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<()> {
     if args.list {
         for c in validate::cases() {
             let kind = if c.informational { " (informational)" } else { "" };
-            println!("{:<24} {}{kind}", c.name, c.title);
+            print_text(&format!("{:<24} {}{kind}\n", c.name, c.title))?;
         }
         return Ok(());
     }
@@ -75,15 +75,15 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<()> {
     let mut results = Vec::with_capacity(cases.len());
     for case in &cases {
         let r = pool.install(|| validate::run(case, args.samples))?;
-        println!("{}", validate::summary(&r));
+        print_text(&format!("{}\n", validate::summary(&r)))?;
         results.push(r);
     }
     validate::write_report(&args.out, &results)?;
-    println!("\n{}", validate::TABLE_HEADER);
+    print_text(&format!("\n{}\n", validate::TABLE_HEADER))?;
     for r in &results {
-        println!("{}", validate::report_row(r));
+        print_text(&format!("{}\n", validate::report_row(r)))?;
     }
-    println!("wrote {}", args.out.join("report.md").display());
+    print_text(&format!("wrote {}\n", args.out.join("report.md").display()))?;
     let failed: Vec<&str> = results
         .iter()
         .filter(|r| r.verdict == validate::Verdict::Fail)
