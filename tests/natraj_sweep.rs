@@ -31,7 +31,7 @@ use std::f64::consts::PI;
 use std::io::Write;
 use std::path::PathBuf;
 
-use atmosim::compat::stats::two_sided_tail;
+use atmosim::compat::significance::two_sided_tail;
 use atmosim::film::directions::render_directions_all;
 use atmosim::sampling::stream::Render;
 use atmosim::sensor::direction::Direction;

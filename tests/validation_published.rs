@@ -6,7 +6,7 @@
 
 mod common;
 
-use atmosim::compat::stats::sidak_threshold;
+use atmosim::compat::significance::sidak_threshold;
 use atmosim::compat::validate::{iprt_b, statistics};
 use common::table;
 

@@ -141,6 +141,9 @@ impl Layout {
                     (0..nw).map(Channels::One).collect()
                 };
                 for channels in channel_sets {
+                    // Each pixel draws from its own stream (`Estimate::Pixel`
+                    // with its index, in `film::image`); the key holds the
+                    // render they share.
                     estimates.push(Estimate {
                         kind: EstimateKind::Pixels { channels },
                         key: StreamKey::new(

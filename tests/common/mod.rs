@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use atmosim::compat::stats::sidak_threshold;
+use atmosim::compat::significance::sidak_threshold;
 use atmosim::film::directions::render_directions;
 use atmosim::film::tally::Tally;
 use atmosim::job::Job;

@@ -3,7 +3,7 @@
 //! compared value (z = difference over the combined standard error, Šidák
 //! threshold for a 1 % family-wise false alarm).
 
-use crate::compat::stats::sidak_threshold;
+use crate::compat::significance::sidak_threshold;
 
 /// Family-wise false-alarm rate of a case's z test.
 pub const ALPHA: f64 = 0.01;

@@ -1,6 +1,6 @@
-//! Statistics for comparing Monte Carlo estimates with references: the
-//! standard normal tail, its quantile, and the Šidák-corrected threshold for
-//! |z| over a family of comparisons.
+//! The significance of a difference between a Monte Carlo estimate and a
+//! reference: the standard normal tail, its quantile, and the
+//! Šidák-corrected threshold for |z| over a family of comparisons.
 
 /// Complementary error function, erfc(x), from the Chebyshev fit of
 /// Press et al. (Numerical Recipes, 2nd ed., §6.2), fractional error below
