@@ -3,7 +3,7 @@
 //! the portable loops' results bit for bit.
 
 /// Σ_k w_k·√((r_k − h)(r_k + h)) with r_k = `radius_km` + `levels_km[k]`
-/// (a negative radicand counts as 0): the half chords of [`shell_exit`]
+/// (a negative radicand counts as 0): the half chords of [`shell_exit`](crate::geometry::shell_exit)
 /// weighted by σ steps. Four independent partial sums, so the square roots
 /// pipeline (and vectorise: the same code compiled for AVX2 where the CPU
 /// has it; the order of operations, hence the result, is the same either way).

@@ -21,9 +21,9 @@ use crate::geometry::ray::{Collision, Ray, Segment, WalkEnd};
 ///   the same plus 2·Σ_(m<k≤L) S_k·Δσ_k (the descent mirrors the ascent);
 /// - into the ground (b < 0, h < R_0): −b·σ_L + Σ_(k≤L) S_k·Δσ_k.
 ///
-/// This is Σ σ_l × chord_l over the segments [`walk`] visits, regrouped by
+/// This is Σ σ_l × chord_l over the segments [`walk`](crate::geometry::ray::walk) visits, regrouped by
 /// level: one independent square root per level and no branches between
-/// them (see [`weighted_half_chords`]). Its absolute error, like the walked
+/// them (see [`weighted_half_chords`](crate::geometry::chord_kernels::weighted_half_chords)). Its absolute error, like the walked
 /// sum's, is at most of order (number of levels)·ε·R·max σ (about 1e-11 at
 /// 320 nm), tangent and grazing rays included.
 pub fn shell_exit(radius_km: f64, levels_km: &[f64], ray: &Ray) -> ShellExit {
@@ -165,7 +165,7 @@ impl ShellExit {
 
     /// The point at optical depth `target` along the ray, for σ per layer
     /// `sigma` and the half chords `chords` of [`ShellExit::levels`]: the
-    /// search of [`locate`] over [`ShellExit::try_for_each_segment`]; the
+    /// search of `free_flight::locate_with` over [`ShellExit::try_for_each_segment`]; the
     /// last segment's end if rounding leaves the target beyond the ray's
     /// end.
     pub fn locate(&self, sigma: &[f64], chords: &[f64], target: f64) -> Collision {

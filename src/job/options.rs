@@ -35,7 +35,7 @@ pub struct Settings {
     /// How next-event points along a flight are chosen.
     pub sun_sampling: SunSampling,
     /// Split the sensor path at its first vertex: a forced flight toward a
-    /// reflecting ground follows both of its ends ([`GroundEnd::Split`]),
+    /// reflecting ground follows both of its ends,
     /// and the first scattering goes on in two directions a quarter turn
     /// apart about the line of sight (`quarter_turn`), half the weight
     /// each.

@@ -59,7 +59,7 @@ pub struct Layout {
     /// same number of samples for every pixel); checkpoints and stop
     /// requests are honoured between waves.
     pub wave_paths: u64,
-    /// Resize waves to last about [`WAVE_SECONDS`] from the measured rate
+    /// Resize waves to last about [`WAVE_SECONDS`](crate::run::work_unit::WAVE_SECONDS) from the measured rate
     /// (the partition into waves never changes the sums).
     pub adaptive_waves: bool,
 }

@@ -3,10 +3,10 @@
 //! stopped (SIGTERM) and resumed, and whose sums add up with those of the
 //! task's other shards.
 //!
-//! A task is a fixed list of *estimates* ([`Layout`](crate::run::layout::Layout)): per viewing direction
+//! A task is a fixed list of *estimates* ([`Layout`]): per viewing direction
 //! (all wavelengths along shared paths, or one wavelength), the downward and
 //! upward fluxes per wavelength, or every pixel of an image. The state of a
-//! unit ([`UnitState`](crate::run::layout::UnitState)) is, per estimate, how much of the shard's sample
+//! unit ([`UnitState`]) is, per estimate, how much of the shard's sample
 //! range is done and the running sums. Sums always grow in sample order
 //! (sample blocks for directions, samples per pixel for images), so a run
 //! stopped after any wave and resumed from its checkpoint gives bit for bit

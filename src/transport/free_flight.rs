@@ -96,7 +96,7 @@ pub(crate) fn majorant_depth(medium: &Medium, seg: &Segment) -> f64 {
 
 /// The point at optical depth `tau_target` along `ray` for σ per layer
 /// `sigma` (finite segments only), walking its segments until it is
-/// reached (as [`locate_on_ray`]).
+/// reached.
 pub fn locate_with(sigma: &[f64], geometry: &Geometry, levels_km: &[f64], ray: &Ray, tau_target: f64) -> Collision {
     let mut search = DepthSearch::new(tau_target);
     let mut hit = None;

@@ -2,7 +2,7 @@
 //! Emde et al. 2016, the libRadtran 2 user guide): enough to describe
 //! single-wavelength radiance runs over an AFGL atmosphere with ozone, OPAC or
 //! explicit Henyey–Greenstein aerosol and a Lambertian ground, mapped onto an
-//! atmosim [`Job`]. `run` renders it; `format` prints uvspec-style output.
+//! atmosim [`Job`](crate::job::Job). `run` renders it; `format` prints uvspec-style output.
 //!
 //! Directions: uvspec's `umu` is the cosine of the zenith angle of the
 //! direction the light PROPAGATES (umu < 0: downwelling radiance, the sensor

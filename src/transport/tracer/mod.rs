@@ -45,7 +45,7 @@
 //! ground vertex, or along the whole flight instead: K stratified points
 //! of the hero's forced density (`sun_samples_per_flight`), or one point
 //! from a density following the sunlit single scattering (sun-aware,
-//! [`FlightDensity`]). Such a point's density is the same for every
+//! [`FlightDensity`](crate::transport::flight_density::FlightDensity)). Such a point's density is the same for every
 //! channel, so the path's MIS weight applies to it unchanged. Shadow rays
 //! give every channel's transmittance, exact or ratio-tracked against the
 //! largest of the channels' majorants, along the direct beam's path (in

@@ -193,7 +193,7 @@ impl Scene {
 
     /// The scene with sun-aware connections: at every flight, one point
     /// drawn along it from a density that follows the sunlit single
-    /// scattering of the channels ([`Scene::sun_along_flight`])
+    /// scattering of the channels (`Scene::sun_along_flight`)
     /// instead of the connection at the collision.
     pub fn with_sun_aware(mut self) -> Scene {
         let layers = self.levels_km.len() - 1;
