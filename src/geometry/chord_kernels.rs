@@ -7,6 +7,7 @@
 /// weighted by σ steps. Four independent partial sums, so the square roots
 /// pipeline (and vectorise: the same code compiled for AVX2 where the CPU
 /// has it; the order of operations, hence the result, is the same either way).
+#[inline]
 pub fn weighted_half_chords(radius_km: f64, levels_km: &[f64], weights: &[f64], h: f64) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
@@ -47,6 +48,7 @@ pub(crate) fn weighted_half_chords_portable(radius_km: f64, levels_km: &[f64], w
 /// Σ a_i·b_i in four independent partial sums (AVX2 where the CPU has it;
 /// the same order of operations, hence the same result, either way): the
 /// optical depths of many wavelengths from one ray's half chords.
+#[inline]
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
@@ -81,6 +83,7 @@ pub(crate) fn dot_portable(a: &[f64], b: &[f64]) -> f64 {
 
 /// The half chords √((r_k − h)(r_k + h)) (0 for a negative radicand) of
 /// `levels_km` into `out`, element by element (AVX2 where the CPU has it).
+#[inline]
 pub fn half_chords_into(radius_km: f64, levels_km: &[f64], h: f64, out: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {

@@ -41,6 +41,7 @@ pub enum WalkEnd {
 
 /// Walks the layer segments of `ray` in order, calling `f` for each until it
 /// returns `Break` or the ray reaches the ground or the top.
+#[inline]
 pub fn walk(geometry: &Geometry, levels_km: &[f64], ray: &Ray, f: impl FnMut(Segment) -> ControlFlow<()>) -> WalkEnd {
     match *geometry {
         Geometry::Spherical { radius_km } => walk_spherical(radius_km, levels_km, ray, f),
@@ -86,6 +87,7 @@ pub(crate) fn walk_stepwise(
 /// The layer entered after leaving `layer` downward (`down`) or upward at
 /// distance `t1`, or how the walk ends (ground below layer 0, top above
 /// layer `top`).
+#[inline]
 pub(crate) fn cross(layer: usize, down: bool, top: usize, t1: f64) -> Result<usize, WalkEnd> {
     match (down, layer) {
         (true, 0) => Err(WalkEnd::Ground { t: t1 }),
@@ -154,6 +156,7 @@ pub(crate) fn walk_spherical(
 /// (`up_dot` = dir · up): a point exactly on a boundary belongs to the layer
 /// the ray enters. `None` if the ray starts on the ground going down or at
 /// the top going up (it is not in the atmosphere).
+#[inline]
 pub fn layer_at(levels_km: &[f64], z_km: f64, up_dot: f64) -> Option<usize> {
     let n = levels_km.len();
     let top = levels_km[n - 1];

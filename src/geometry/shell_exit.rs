@@ -26,6 +26,7 @@ use crate::geometry::ray::{Collision, Ray, Segment, WalkEnd};
 /// them (see [`weighted_half_chords`](crate::geometry::chord_kernels::weighted_half_chords)). Its absolute error, like the walked
 /// sum's, is at most of order (number of levels)·ε·R·max σ (about 1e-11 at
 /// 320 nm), tangent and grazing rays included.
+#[inline]
 pub fn shell_exit(radius_km: f64, levels_km: &[f64], ray: &Ray) -> ShellExit {
     let n = levels_km.len() - 1;
     let o = ray.origin;
@@ -70,6 +71,7 @@ impl ShellExit {
     /// The levels the ray crosses, in one run (those crossed twice, then
     /// those crossed once): the half chords [`ShellExit::depth`] and
     /// [`ShellExit::segments`] read.
+    #[inline]
     pub fn levels(&self) -> std::ops::Range<usize> {
         let start = if self.twice.is_empty() {
             self.once.start
@@ -82,6 +84,7 @@ impl ShellExit {
     /// The optical depth to where the ray leaves, for σ of the origin's
     /// layer `sigma_origin`, the σ steps at every level and the half chords
     /// `chords` of [`ShellExit::levels`].
+    #[inline]
     pub fn depth(&self, sigma_origin: f64, steps: &[f64], chords: &[f64]) -> f64 {
         let start = self.levels().start;
         let part = |r: &std::ops::Range<usize>| {
@@ -100,6 +103,7 @@ impl ShellExit {
     /// descends through the levels crossed twice (or, into the ground,
     /// through all those below), then ascends through every level of the
     /// run. The absolute error of each t is of order ε·R, like the depth's.
+    #[inline]
     pub fn segments<'a>(&'a self, chords: &'a [f64]) -> impl Iterator<Item = Segment> + 'a {
         let mut t = 0.0;
         self.boundaries(chords).map(move |(layer, end)| {
@@ -113,6 +117,7 @@ impl ShellExit {
     /// The levels met descending (in reverse order) and then ascending:
     /// descending through those crossed twice (or, into the ground, through
     /// all those below), then ascending through the whole run.
+    #[inline]
     fn runs(&self) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
         if self.ground {
             (self.once.clone(), 0..0)
@@ -122,6 +127,7 @@ impl ShellExit {
     }
 
     /// Each segment's layer and where it ends, in order (unclamped).
+    #[inline]
     fn boundaries<'a>(&'a self, chords: &'a [f64]) -> impl Iterator<Item = (usize, f64)> + 'a {
         let start = self.levels().start;
         let b = self.b;
@@ -168,6 +174,7 @@ impl ShellExit {
     /// search of `free_flight::locate_with` over [`ShellExit::try_for_each_segment`]; the
     /// last segment's end if rounding leaves the target beyond the ray's
     /// end.
+    #[inline]
     pub fn locate(&self, sigma: &[f64], chords: &[f64], target: f64) -> Collision {
         let mut acc = 0.0;
         let mut last = None;
@@ -197,6 +204,7 @@ impl ShellExit {
 
     /// How the ray ends, with its distance to the ground or the top
     /// (computed on demand: most callers need only the optical depth).
+    #[inline]
     pub fn end(&self, radius_km: f64, levels_km: &[f64], ray: &Ray) -> WalkEnd {
         let half_chord = |r: f64| ((r - self.h) * (r + self.h)).max(0.0).sqrt();
         if self.ground {

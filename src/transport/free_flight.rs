@@ -76,6 +76,7 @@ pub fn sample_t_maj(
 
 /// The layer segments of `ray` with their majorant optical depths, into
 /// `segments` (cleared first); an endless segment has depth ∞ unless empty.
+#[inline]
 pub fn segments_of(medium: &Medium, geometry: &Geometry, ray: &Ray, segments: &mut Vec<(Segment, f64)>) -> WalkEnd {
     segments.clear();
     walk(geometry, medium.levels_km(), ray, |seg| {
@@ -85,6 +86,7 @@ pub fn segments_of(medium: &Medium, geometry: &Geometry, ray: &Ray, segments: &m
 }
 
 /// σ_maj × length of a segment (∞ for an endless segment of a non-empty layer).
+#[inline]
 pub(crate) fn majorant_depth(medium: &Medium, seg: &Segment) -> f64 {
     let sigma = medium.sigma_maj(seg.layer);
     if seg.t1.is_infinite() {
@@ -97,6 +99,7 @@ pub(crate) fn majorant_depth(medium: &Medium, seg: &Segment) -> f64 {
 /// The point at optical depth `tau_target` along `ray` for σ per layer
 /// `sigma` (finite segments only), walking its segments until it is
 /// reached.
+#[inline]
 pub fn locate_with(sigma: &[f64], geometry: &Geometry, levels_km: &[f64], ray: &Ray, tau_target: f64) -> Collision {
     let mut search = DepthSearch::new(tau_target);
     let mut hit = None;
@@ -120,6 +123,7 @@ pub(crate) struct DepthSearch {
 }
 
 impl DepthSearch {
+    #[inline]
     fn new(target: f64) -> DepthSearch {
         DepthSearch {
             target,
@@ -129,6 +133,7 @@ impl DepthSearch {
     }
 
     /// The collision if the target lies in `seg` (σ `sigma`, depth `tau`).
+    #[inline]
     fn step(&mut self, sigma: f64, seg: Segment, tau: f64) -> Option<Collision> {
         if sigma > 0.0 && self.acc + tau >= self.target {
             return Some(Collision {
@@ -143,6 +148,7 @@ impl DepthSearch {
     }
 
     /// Rounding left the target just beyond the last segment: its end.
+    #[inline]
     fn beyond(&self, sigma: &[f64]) -> Collision {
         let seg = self.last.expect("a located flight has a segment");
         Collision {
@@ -156,6 +162,7 @@ impl DepthSearch {
 /// The optical depth of a forced collision for the uniform variate `u`,
 /// with forcing probability `p` = 1 − e^(−τ_exit): the inverse of the
 /// truncated exponential.
+#[inline]
 pub fn forced_distance(u: f64, p: f64) -> f64 {
     -(-u * p).ln_1p()
 }

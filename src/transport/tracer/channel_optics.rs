@@ -18,6 +18,7 @@ use super::spectra::{Basis, ChannelSpectra};
 impl Scene {
     /// Fills the spectra's solar factors for the channels' wavelengths
     /// `lambda(channel)`.
+    #[inline]
     pub(super) fn refresh_solar(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
         spectra.solar.clear();
         spectra
@@ -30,6 +31,7 @@ impl Scene {
 
     /// Fills the spectra's extinction weights on the basis from its
     /// responses.
+    #[inline]
     pub(super) fn refresh_weights(&self, spectra: &mut ChannelSpectra) {
         let (n, t, b) = (self.channels.len(), self.terms.terms.len(), self.basis_len);
         match &self.basis {
@@ -53,6 +55,7 @@ impl Scene {
 
     /// The spectra of one path: each band's wavelength drawn (stratified
     /// over the estimate's samples, one dimension per channel).
+    #[inline]
     pub(super) fn draw_spectra(&self, spectra: &mut ChannelSpectra, sampler: &Sampler) {
         let t = self.terms.terms.len();
         spectra.responses.resize(self.channels.len() * t, TermOptics::default());
@@ -106,6 +109,7 @@ impl Scene {
     }
 
     /// Each channel's optical depth from the basis depths.
+    #[inline]
     pub(super) fn combine(spectra: &ChannelSpectra, tau_basis: &[f64], tau: &mut [f64]) {
         let b = tau_basis.len();
         for (w, t) in tau.iter_mut().enumerate() {
@@ -116,6 +120,7 @@ impl Scene {
 
     /// The coefficients of channel `w` at fraction `f` of `layer` (see
     /// [`Scene::fraction`]).
+    #[inline]
     pub(super) fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointOptics {
         if let Some(c) = spectra.coefficients.get(w * (self.levels_km.len() - 1) + layer) {
             return *c;
@@ -136,12 +141,14 @@ impl Scene {
 
     /// Whether σ_t is constant in each layer and tracked against itself:
     /// optical depths in closed form, every tentative collision real.
+    #[inline]
     pub(super) fn exact_majorant(&self) -> bool {
         self.shapes.is_none() && self.majorant_scale == 1.0
     }
 
     /// Whether flights that would end without contributing are forced to
     /// collide ([`Settings::forced_collisions`], with an exact majorant).
+    #[inline]
     pub(super) fn forced(&self) -> bool {
         self.settings.forced_collisions && self.exact_majorant()
     }
@@ -174,6 +181,7 @@ impl Scene {
     /// The majorant of channel `w` in `layer`: `majorant_scale` times a
     /// bound on its σ_t over the layer (σ_t itself in the layered medium;
     /// in the smooth one, each basis vector's largest factor).
+    #[inline]
     pub(super) fn majorant(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
         let bound = match &self.shapes {
             None => self.sigma_t(spectra, layer, w),
@@ -189,6 +197,7 @@ impl Scene {
 
     /// Adds every basis vector's optical depth over [t0, t1] of `ray` (in
     /// `layer` of `geometry`) to `tau`.
+    #[inline]
     pub(super) fn accumulate_along(
         &self,
         tau: &mut [f64],

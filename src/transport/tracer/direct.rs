@@ -20,6 +20,7 @@ impl Scene {
     /// spacing is 0.1 nm); a monochromatic channel's value at its
     /// wavelength. Optical depths are exact: one column per extinction
     /// term along the sun's direction, Σ_t response_t(λ)·τ_t.
+    #[inline]
     pub fn direct_horizontal(&self, altitude_km: f64, w: usize) -> f64 {
         let origin = self.geometry.observer_position(altitude_km);
         let mu0 = self.sun.direction.dot(self.geometry.up(origin));
@@ -33,6 +34,7 @@ impl Scene {
     /// band average of T(λ), times E0 at λ with `weighted` and a
     /// solar spectrum (as [`Scene::direct_horizontal`]); 0 for a
     /// sun below the observer's horizon or behind the planet.
+    #[inline]
     pub fn direct_normal(&self, altitude_km: f64, w: usize, weighted: bool) -> f64 {
         let origin = self.geometry.observer_position(altitude_km);
         let dir = self.sun.direction;
@@ -59,11 +61,13 @@ impl Scene {
 
     /// Each term's amount integrated along `ray` over at most `length` (km),
     /// or `None` when the ray meets the ground first.
+    #[inline]
     pub fn term_columns(&self, ray: &Ray, length: f64) -> Option<Vec<f64>> {
         self.term_columns_in((self.geometry, *ray), length)
     }
 
     /// [`Scene::term_columns`] along a ray of a given geometry.
+    #[inline]
     pub(super) fn term_columns_in(&self, (geometry, ray): (Geometry, Ray), length: f64) -> Option<Vec<f64>> {
         let terms = &self.terms.terms;
         let mut columns = vec![0.0; terms.len()];
@@ -100,6 +104,7 @@ impl Scene {
     /// the composite midpoint rule on cells of at most [`DIRECT_CELL_NM`]
     /// (the ozone data's spacing is 0.1 nm); a monochromatic channel's
     /// value at its wavelength.
+    #[inline]
     pub fn band_average(&self, w: usize, columns: &[f64], weighted: bool) -> f64 {
         let solar = self.solar.as_ref().filter(|_| weighted).map(|solar| {
             self.cell_wavelengths(w)
@@ -111,6 +116,7 @@ impl Scene {
 
     /// The midpoints of channel `w`'s cells (its wavelength alone for a
     /// monochromatic channel).
+    #[inline]
     pub(super) fn cell_wavelengths(&self, w: usize) -> impl Iterator<Item = f64> {
         let channel = self.channels[w];
         let cells = (channel.band_width_nm / DIRECT_CELL_NM).ceil().max(1.0) as usize;
@@ -119,6 +125,7 @@ impl Scene {
 
     /// The extinction responses of every term at the midpoints of channel
     /// `w`'s cells (`[cell·terms + term]`), for [`Scene::band_average_of`].
+    #[inline]
     pub fn band_cells(&self, w: usize) -> Vec<f64> {
         let mut responses = vec![TermOptics::default(); self.terms.terms.len()];
         let mut out = Vec::new();
@@ -132,6 +139,7 @@ impl Scene {
     /// The mean over a band's cells (responses from
     /// [`Scene::band_cells`]) of e^(−Σ response·column), each cell
     /// times its `solar` factor when given.
+    #[inline]
     pub fn band_average_of(cells: &[f64], columns: &[f64], solar: Option<&[f64]>) -> f64 {
         let t = columns.len().max(1);
         let n = (cells.len() / t).max(1);

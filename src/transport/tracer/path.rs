@@ -77,6 +77,7 @@ pub(super) struct Depths {
 }
 
 impl Depths {
+    #[inline]
     pub(super) fn reset(&mut self, n: usize, levels: usize, basis: usize) {
         self.tau.resize(n, 0.0);
         self.tau_basis.resize(basis, 0.0);
@@ -117,6 +118,7 @@ thread_local! {
 }
 
 impl Path {
+    #[inline]
     pub(super) fn reset(
         &mut self,
         n: usize,
@@ -148,6 +150,7 @@ impl Path {
     /// This path as a branch of `other`: its state (throughputs, densities,
     /// frame, order, albedo weights, radiance and the matrices of its last
     /// collision), with scratch of the same sizes but not its contents.
+    #[inline]
     pub(super) fn branch_from(&mut self, other: &Path) {
         self.throughput.clone_from(&other.throughput);
         self.density_ratio.clone_from(&other.density_ratio);
@@ -170,6 +173,7 @@ impl Path {
     }
 
     /// Halves every wavelength's throughput (one of two branches).
+    #[inline]
     pub(super) fn halve(&mut self) {
         for t in self.throughput.iter_mut() {
             *t = *t * 0.5;
@@ -177,11 +181,13 @@ impl Path {
     }
 
     /// Multiplies wavelength `w`'s density ratio by `k`.
+    #[inline]
     pub(super) fn scale_density(&mut self, w: usize, k: f64) {
         self.density_ratio[w] *= k;
     }
 
     /// Refreshes the balance heuristic's denominator after density changes.
+    #[inline]
     pub(super) fn densities_changed(&mut self) {
         let mean = self.density_ratio.iter().sum::<f64>() / self.density_ratio.len() as f64;
         self.inv_mean_density = 1.0 / mean;
@@ -189,6 +195,7 @@ impl Path {
 
     /// Adds wavelength `w`'s contribution `s` (throughput already in it),
     /// with the balance heuristic over the wavelengths' path densities.
+    #[inline]
     pub(super) fn add(&mut self, w: usize, s: Stokes) {
         let s = s * self.inv_mean_density;
         let base = w * self.albedos;
@@ -200,6 +207,7 @@ impl Path {
     /// Russian roulette on the mean effective T₀₀ over the wavelengths (the
     /// largest kept paths alive as long as 320 nm needed: 1.5× the cost
     /// for a larger error at 320 nm at equal time).
+    #[inline]
     pub(super) fn roulette(&mut self, sampler: &mut Sampler) -> bool {
         let mean = self.throughput.iter().map(|t| t.0[0][0]).sum::<f64>() / self.throughput.len() as f64;
         let w = mean * self.inv_mean_density;

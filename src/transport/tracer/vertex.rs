@@ -23,6 +23,7 @@ pub(crate) const ROULETTE_THRESHOLD: f64 = 0.1;
 /// plane-parallel `geometry` with a planet radius) the same direction from
 /// the point at the same altitude above the top of a sphere (where the
 /// local vertical is +z, as in the slab).
+#[inline]
 pub(crate) fn sun_ray(geometry: Geometry, pseudo_spherical_radius_km: Option<f64>, ray: Ray) -> (Geometry, Ray) {
     match (pseudo_spherical_radius_km, geometry) {
         (Some(radius_km), Geometry::PlaneParallel) => (
@@ -37,17 +38,20 @@ pub(crate) fn sun_ray(geometry: Geometry, pseudo_spherical_radius_km: Option<f64
 }
 
 /// Whether a ground of these albedos reflects at all.
+#[inline]
 pub(crate) fn reflects(albedos: &[f64]) -> bool {
     albedos.iter().any(|&a| a > 0.0)
 }
 
 /// The albedo a path's throughput carries at a ground reflection: the mean
 /// of the scene's albedos (callers only reflect when one is positive).
+#[inline]
 pub(crate) fn reference_albedo(albedos: &[f64]) -> f64 {
     albedos.iter().sum::<f64>() / albedos.len() as f64
 }
 
 /// The phase function of one component, picked with probability σ_i/σ_s.
+#[inline]
 pub(crate) fn pick_component(c: &PointOptics, u: f64) -> PhaseFunction {
     if u * c.sigma_s() < c.sigma_rayleigh {
         PhaseFunction::Rayleigh {
@@ -59,6 +63,7 @@ pub(crate) fn pick_component(c: &PointOptics, u: f64) -> PhaseFunction {
 }
 
 /// The σ_s-weighted mixture of a point's phase functions.
+#[inline]
 pub(crate) fn phase_mixture(c: &PointOptics) -> PhaseMixture {
     let sigma_s = c.sigma_s();
     if sigma_s <= 0.0 {
@@ -95,6 +100,7 @@ pub(crate) const SUN_AWARE_SHARE: f64 = 0.8;
 /// the axes keep the length |n| (sin Θ, or |e1_out| when the plane is
 /// undefined), and the returned axis is rescaled only when its length
 /// would otherwise drift toward underflow over very long paths.
+#[inline]
 pub(crate) fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (StokesRotation, DVec3) {
     let cross = k_in.cross(k_out);
     let n = if cross.length_squared() > 1e-24 {
@@ -118,10 +124,12 @@ pub(crate) fn scattering_frame(e1_out: DVec3, k_in: DVec3, k_out: DVec3) -> (Sto
 /// density; their Stokes frames differ by 90°, so the linear polarisation
 /// each contributes through a Rayleigh scattering (cos 2ψ, sin 2ψ) has
 /// opposite sign, and their mean cancels most of the noise of ψ.
+#[inline]
 pub(crate) fn quarter_turn(axis: DVec3, v: DVec3) -> DVec3 {
     v.dot(axis) * axis + axis.cross(v)
 }
 
+#[inline]
 pub(crate) fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
     let r = u[0].sqrt();
     let phi = 2.0 * PI * u[1];
