@@ -18,8 +18,9 @@
 //! ```text
 //! physics/       constants, Rayleigh, ozone, OPAC aerosol, visibility, gas profiles,
 //!                the solar spectrum, and the embedded data tables they read
+//! geometry/      shells and slabs, rays and their walk, half chords, the sun,
+//!                orthonormal bases
 //! polarization/  Stokes vectors, Mueller and phase matrices, Stokes frames
-//! geometry/      shells and slabs, rays and their walk, half chords, the sun
 //! sampling/      random streams and their typed keys
 //! atmosphere/    levels and one optics record per layer and wavelength; reports
 //! sensor/        viewing directions and cameras

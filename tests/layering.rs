@@ -15,13 +15,13 @@ use std::path::{Path, PathBuf};
 
 /// The library's folders in data-flow order (the crate docs' list): each may
 /// import only from folders before it, and from the root's files. So nothing
-/// in physics, polarization, geometry, sampling, atmosphere, sensor, job,
+/// in physics, geometry, polarization, sampling, atmosphere, sensor, job,
 /// transport or film imports io, run, compat or cli, and the job imports
 /// nothing of the transport that renders it.
 const ORDER: [&str; 13] = [
     "physics",
-    "polarization",
     "geometry",
+    "polarization",
     "sampling",
     "atmosphere",
     "sensor",

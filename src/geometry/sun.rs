@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 
-use crate::polarization::phase::orthonormal_basis;
+use crate::geometry::basis::orthonormal_basis;
 
 /// The sun as seen from the observer.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -26,6 +26,7 @@
 //! (Over 600 lines with its unit tests, about 280 without: every phase
 //! function's normalisation and sampling is tested beside it.)
 
+use crate::geometry::basis::orthonormal_basis;
 use crate::polarization::stokes::{Mueller, PhaseMatrix};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -205,18 +206,6 @@ fn sample_hg_cos_theta(g: f64, u: f64) -> f64 {
         (1.0 + g * g - w * w) / (2.0 * g)
     };
     mu.clamp(-1.0, 1.0)
-}
-
-/// Orthonormal basis `(b1, b2)` with `b1 × b2 = n` for a unit vector `n`,
-/// branch-free except for the sign (Duff et al. 2017, "Building an
-/// Orthonormal Basis, Revisited", JCGT 6(1)).
-pub fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = 1f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let b1 = DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let b2 = DVec3::new(b, sign + n.y * n.y * a, -n.y);
-    (b1, b2)
 }
 
 /// The σ_s-weighted mixture of Rayleigh (weight w_r, depolarisation ρ) and
@@ -544,24 +533,6 @@ mod tests {
                 assert!((s.pdf - pdf).abs() <= 1e-12 * pdf);
                 assert!((0.0..2.0 * PI).contains(&s.phi));
             }
-        }
-    }
-
-    #[test]
-    fn orthonormal_basis_is_right_handed() {
-        let mut rng = Pcg64Mcg::seed_from_u64(9);
-        let mut dirs = vec![DVec3::Z, -DVec3::Z, DVec3::X, DVec3::new(0.0, 1e-12, -1.0).normalize()];
-        for _ in 0..1000 {
-            let z: f64 = 2.0 * rng.random::<f64>() - 1.0;
-            let phi = 2.0 * PI * rng.random::<f64>();
-            let s = (1.0 - z * z).sqrt();
-            dirs.push(DVec3::new(s * phi.cos(), s * phi.sin(), z));
-        }
-        for n in dirs {
-            let (b1, b2) = orthonormal_basis(n);
-            assert!((b1.length() - 1.0).abs() < 1e-12 && (b2.length() - 1.0).abs() < 1e-12);
-            assert!(b1.dot(b2).abs() < 1e-12 && b1.dot(n).abs() < 1e-12 && b2.dot(n).abs() < 1e-12);
-            assert!((b1.cross(b2) - n).length() < 1e-12);
         }
     }
 

@@ -491,7 +491,7 @@ mod tests {
                 rng.random::<f64>() - 0.5,
             )
             .normalize();
-            let (a, _) = crate::polarization::phase::orthonormal_basis(k);
+            let (a, _) = crate::geometry::basis::orthonormal_basis(k);
             let b = (a * (rng.random::<f64>() - 0.5) + k.cross(a) * (rng.random::<f64>() - 0.5)).normalize();
             let fast = StokesRotation::between(a, b, k);
             let slow = Mueller::rotation(rotation_angle(a, b, k));

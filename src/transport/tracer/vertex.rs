@@ -8,9 +8,10 @@ use std::f64::consts::{FRAC_1_PI, PI};
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
+use crate::geometry::basis::orthonormal_basis;
 use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
-use crate::polarization::phase::{PhaseFunction, PhaseMixture, orthonormal_basis};
+use crate::polarization::phase::{PhaseFunction, PhaseMixture};
 use crate::polarization::stokes::StokesRotation;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
