@@ -22,9 +22,6 @@
 //! Cardano's formula; the standard closed form for Henyey–Greenstein) and the
 //! azimuth uniformly. Uniform variates are passed in explicitly so that the
 //! transport code owns its random streams.
-//!
-//! (Over 600 lines with its unit tests, about 280 without: every phase
-//! function's normalisation and sampling is tested beside it.)
 
 use crate::geometry::basis::orthonormal_basis;
 use crate::polarization::stokes::{Mueller, PhaseMatrix};
