@@ -31,6 +31,7 @@
 //! io/            CSV, OpenEXR, PNG previews, task files; atomic writes
 //! run/           work units, shards, checkpoints, merges, plans (no physics)
 //! compat/        uvspec input and output, validation against references
+//! skymodel/      the Prague sky model's dataset format, its runtime in Rust, the fitter
 //! ```
 //!
 //! The binary (`src/main.rs`, `src/cli/`) parses the command line, calls
@@ -49,6 +50,7 @@ pub mod polarization;
 pub mod run;
 pub mod sampling;
 pub mod sensor;
+pub mod skymodel;
 pub mod transport;
 
 pub use error::{Error, Result};

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 /// in physics, geometry, polarization, sampling, atmosphere, sensor, job,
 /// transport or film imports io, run, compat or cli, and the job imports
 /// nothing of the transport that renders it.
-const ORDER: [&str; 13] = [
+const ORDER: [&str; 14] = [
     "physics",
     "geometry",
     "polarization",
@@ -31,6 +31,7 @@ const ORDER: [&str; 13] = [
     "io",
     "run",
     "compat",
+    "skymodel",
     "cli",
 ];
 /// The root's own files, which every folder may use.

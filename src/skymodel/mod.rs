@@ -1,0 +1,13 @@
+//! Fitted sky models: the dataset format of the Prague sky model's public
+//! runtime, that runtime's evaluation in Rust, and the fitter that makes a
+//! dataset from rendered skies and transmittance tables.
+//!
+//! - `angles`: the runtime's view angles (γ, θ, θ′, σ, α), shared by the
+//!   fitter and the evaluation;
+//! - `dataset`: the file format, written and read field by field;
+//! - `runtime`: evaluation with the runtime's semantics (radiance,
+//!   polarisation, transmittance, the sun);
+//! - `fit/`: from renders to a dataset, one tested function per step.
+
+pub mod angles;
+pub mod fit;
