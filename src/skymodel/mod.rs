@@ -10,4 +10,6 @@
 //! - `fit/`: from renders to a dataset, one tested function per step.
 
 pub mod angles;
+pub mod dataset;
 pub mod fit;
+pub mod runtime;

@@ -4,6 +4,13 @@
 //! The images a step works on are [`SphereImage`]s (every direction, in the
 //! sphere camera's layout) and [`AngleTable`]s (the (γ, α) plane).
 
+pub mod breaks;
+pub mod decompose;
+pub mod emphasis;
+pub mod laplace;
+pub mod reproject;
+pub mod smooth;
+
 use std::f64::consts::PI;
 
 use glam::DVec3;
