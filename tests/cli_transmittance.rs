@@ -76,7 +76,43 @@ fn bad_grids_are_refused() {
         ("altitudes_km = [0.0, 150.0]\n", "transmittance.altitudes_km"),
         ("altitudes_km = [1.0]\n", "transmittance.altitudes_km"),
         ("estimator = \"guess\"\n", "guess"),
+        ("layout = \"sky_model\"\nmax_distance_km = 100.0\n", "transmittance.max_distance_km"),
+        ("layout = \"sky_model\"\naltitudes_km = [0.0, 1.0]\n", "transmittance.altitudes_km"),
+        ("layout = \"grid\"\n", "grid"),
     ] {
         common::assert_refused("transmittance", &format!("[transmittance]\n{section}"), &[key]);
     }
+}
+
+/// `layout = "sky_model"`: the sky-model runtime's nodes, a_i = 100 km·(i/N)³
+/// and d_j = 1571.524 km·(j/N)⁴ from i, j = 0 (i/N, not i/(N − 1)).
+#[test]
+fn the_sky_model_layout_has_the_runtimes_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("job.toml"),
+        "[spectrum]\nwavelengths_nm = [550.0]\n[observer]\naltitude_km = 1.0\n\
+         [transmittance]\nlayout = \"sky_model\"\naltitude_nodes = 4\ndistance_nodes = 5\nestimator = \"analytic\"\n",
+    )
+    .unwrap();
+    let out = atmosim()
+        .current_dir(dir.path())
+        .args(["transmittance", "job.toml", "--out", "tables", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let exr = read_exr(&dir.path().join("tables").join("transmittance.exr")).unwrap();
+    let attr = |k: &str| exr.attributes.iter().find(|(a, _)| a == k).unwrap().1.clone();
+    let list = |k: &str| -> Vec<f64> { attr(k).split(' ').map(|v| v.parse().unwrap()).collect() };
+    let a = list("altitudes_km");
+    let d = list("distances_km");
+    assert_eq!(a.len(), 4);
+    assert_eq!(d.len(), 5);
+    for (i, &x) in a.iter().enumerate() {
+        assert!((x - 100.0 * (i as f64 / 4.0).powi(3)).abs() < 1e-12, "a_{i} = {x}");
+    }
+    for (j, &x) in d.iter().enumerate() {
+        assert!((x - 1571.524 * (j as f64 / 5.0).powi(4)).abs() < 1e-9, "d_{j} = {x}");
+    }
+    assert!(attr("grid").starts_with("sky_model"));
 }

@@ -277,9 +277,17 @@ pub(super) enum RawEstimator {
     Analytic,
 }
 
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawTableLayout {
+    Closed,
+    SkyModel,
+}
+
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawTransmittance {
+    pub(super) layout: Option<RawTableLayout>,
     pub(super) altitude_nodes: Option<i64>,
     pub(super) distance_nodes: Option<i64>,
     pub(super) max_distance_km: Option<f64>,

@@ -1,11 +1,13 @@
 //! Resolving the `[transmittance]` section.
 
 use super::context::Ctx;
-use super::raw::{RawEstimator, RawTransmittance};
+use super::raw::{RawEstimator, RawTableLayout, RawTransmittance};
 use crate::error::Result;
 
 /// The sky model's maximum distance to the edge of the atmosphere (km).
 pub const SKY_MODEL_MAX_DISTANCE_KM: f64 = 1571.524;
+/// The sky-model runtime's height of the atmosphere for its node layout (km).
+pub const SKY_MODEL_TOP_KM: f64 = 100.0;
 
 /// Which estimator fills the table (closed set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,8 +40,29 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The sky model's layout with `n_a` altitude and `n_d` distance nodes.
-    pub fn sky_model(top_km: f64, n_a: usize, n_d: usize, max_distance_km: f64) -> Grid {
+    /// The sky-model runtime's own nodes, `n_a` altitudes and `n_d`
+    /// distances: a_i = 100 km·(i/n_a)³ and d_j = 1571.524 km·(j/n_d)⁴ for
+    /// i, j from 0 (i/N, not i/(N − 1): the runtime's last node lies below
+    /// 100 km and 1571.524 km, and it clamps beyond it). A dataset's
+    /// transmittance part is fitted on exactly these.
+    pub fn sky_model_runtime(n_a: usize, n_d: usize) -> Grid {
+        let node = |i: usize, n: usize, p: i32| (i as f64 / n as f64).powi(p);
+        Grid {
+            altitudes_km: (0..n_a).map(|i| SKY_MODEL_TOP_KM * node(i, n_a, 3)).collect(),
+            distances_km: (0..n_d)
+                .map(|j| SKY_MODEL_MAX_DISTANCE_KM * node(j, n_d, 4))
+                .collect(),
+            definition: format!(
+                "sky_model: a_i = {SKY_MODEL_TOP_KM}*(i/{n_a})^3 km, i = 0..{}; d_j = {SKY_MODEL_MAX_DISTANCE_KM}*(j/{n_d})^4 km, j = 0..{} (the sky-model runtime's nodes)",
+                n_a - 1,
+                n_d - 1
+            ),
+        }
+    }
+
+    /// Power-law nodes with both ends included (layout `closed`):
+    /// a_i = top·(i/(n_a − 1))³ and d_j = max_distance·(j/(n_d − 1))⁴.
+    pub fn closed(top_km: f64, n_a: usize, n_d: usize, max_distance_km: f64) -> Grid {
         let node = |i: usize, n: usize, p: i32| (i as f64 / (n - 1) as f64).powi(p);
         Grid {
             altitudes_km: (0..n_a).map(|i| top_km * node(i, n_a, 3)).collect(),
@@ -123,7 +146,47 @@ pub(super) fn resolve(
         true,
         &max_d_text,
     )?;
-    let mut grid = Grid::sky_model(top_km, n_a, n_d, d_max);
+    let layout = raw.layout.unwrap_or(RawTableLayout::Closed);
+    if let RawTableLayout::SkyModel = layout {
+        for (key, given) in [
+            ("transmittance.max_distance_km", raw.max_distance_km.is_some()),
+            ("transmittance.altitudes_km", raw.altitudes_km.is_some()),
+            ("transmittance.distances_km", raw.distances_km.is_some()),
+        ] {
+            if given {
+                return Err(ctx.invalid(
+                    key,
+                    "given",
+                    "layout = \"sky_model\" fixes the nodes to the runtime's",
+                    "absent with layout = \"sky_model\" (or layout = \"closed\")",
+                ));
+            }
+        }
+        let grid = Grid::sky_model_runtime(n_a, n_d);
+        let highest = grid.altitudes_km[n_a - 1];
+        if highest > top_km {
+            return Err(ctx.invalid(
+                "transmittance.altitude_nodes",
+                n_a,
+                &format!("the highest sky_model node ({highest:.3} km) lies above planet.top_km ({top_km} km)"),
+                "fewer nodes, or an atmosphere up to 100 km",
+            ));
+        }
+        if let Some(r) = radius_km
+            && grid.distances_km[n_d - 1] > std::f64::consts::PI * r
+        {
+            return Err(ctx.invalid(
+                "transmittance.distance_nodes",
+                n_d,
+                "the farthest sky_model node lies beyond half the planet's circumference",
+                "a planet of radius ≥ 500.3 km",
+            ));
+        }
+    }
+    let mut grid = match layout {
+        RawTableLayout::SkyModel => Grid::sky_model_runtime(n_a, n_d),
+        RawTableLayout::Closed => Grid::closed(top_km, n_a, n_d, d_max),
+    };
     let list = |key: &str, values: &[f64], hi: f64, valid: &str| -> Result<Vec<f64>> {
         if values.len() < 2 {
             return Err(ctx.invalid(key, format!("{values:?}"), "fewer than 2 nodes", "a list of 2 or more"));
