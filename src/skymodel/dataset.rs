@@ -554,7 +554,7 @@ fn decode_zenith(h: f16, scale: f64) -> Result<f32, String> {
     let z = (h.to_f64() / scale) as f32;
     if !z.is_finite() || nearest_half(z as f64 * scale).to_bits() != h.to_bits() {
         return Err(format!(
-            "{h} / zenithScale {scale} = {z} is not finite or not stored again as the same half"
+            "{h} / zenithScale {scale:e} = {z:e} is not finite or not stored again as the same half"
         ));
     }
     Ok(z)
@@ -633,7 +633,9 @@ impl<'a> Reader<'a> {
         let need = n as usize * size;
         if need > self.remaining() {
             return Err(self.error(format!(
-                "{what} = {n} at byte {at}: its {need} bytes of values do not fit in the {} bytes left",
+                "truncated at byte {}: {what} = {n} at byte {at} calls for {need} bytes of values, {} are left \
+                 (or the count is damaged)",
+                self.bytes.len(),
                 self.remaining()
             )));
         }
@@ -735,7 +737,7 @@ impl<'a> Reader<'a> {
                 let scale = self.f64(field("zenithScale"))?;
                 if !(scale.is_finite() && scale != 0.0) {
                     let what = field("zenithScale");
-                    return Err(self.error(format!("{what} at byte {at}: {scale}, must be finite and non-zero")));
+                    return Err(self.error(format!("{what} at byte {at}: {scale:e}, must be finite and non-zero")));
                 }
                 rad.zenith_scales.push(scale);
                 self.halves(n_zen, field("zenithCoefsRad"), &mut rad.coefs, |h| {
