@@ -589,18 +589,19 @@ impl Cholesky {
     fn solve(&self, level: &mut Level) {
         let n = self.cells.len();
         let mut y: Vec<f64> = self.cells.iter().map(|&c| level.rhs[c]).collect();
+        // L·y = rhs, then Lᵀ·x = y.
         for i in 0..n {
-            let mut s = y[i];
-            for m in 0..i {
-                s -= self.l[i * n + m] * y[m];
-            }
+            let row = &self.l[i * n..i * n + i];
+            let s = y[i] - row.iter().zip(&y[..i]).map(|(l, y)| l * y).sum::<f64>();
             y[i] = s / self.l[i * n + i];
         }
         for i in (0..n).rev() {
-            let mut s = y[i];
-            for m in i + 1..n {
-                s -= self.l[m * n + i] * y[m];
-            }
+            let s = y[i]
+                - (i + 1..n)
+                    .map(|m| self.l[m * n + i])
+                    .zip(&y[i + 1..])
+                    .map(|(l, y)| l * y)
+                    .sum::<f64>();
             y[i] = s / self.l[i * n + i];
         }
         level.x.fill(0.0);
