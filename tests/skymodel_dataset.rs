@@ -1,13 +1,17 @@
 //! The sky-model dataset file: its layout read back by an independent
 //! parser, exact round trips, the half rounding, and the strict reader's
 //! refusals (truncation at every byte, trailing bytes, damaged counts that
-//! must not allocate).
+//! must not allocate). Then the runtime's evaluation of hand-made datasets
+//! whose answers are known in closed form.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use atmosim::physics::solar::SolarSpectrum;
+use atmosim::skymodel::angles::PLANET_RADIUS_M;
 use atmosim::skymodel::dataset::{Axes, Dataset, DatasetFit, Polarisation, Radiance, Transmittance, nearest_half};
+use atmosim::skymodel::runtime::{Model, Parameters, SUN_RADIUS};
 use half::f16;
 
 /// Records the largest single allocation, so that a test can show that a
@@ -423,4 +427,304 @@ fn the_summary_gives_the_counts() {
     ] {
         assert!(text.contains(line), "{line:?} in\n{text}");
     }
+}
+
+// The runtime's evaluation.
+
+/// The top of the runtime's atmosphere (m) and its greatest distance
+/// parameter (a ground arc, m).
+const TOP_M: f64 = 100_000.0;
+const MAX_ARC_M: f64 = 1_571_524.413613;
+
+/// One visibility, albedo and altitude; `elevations_deg` and
+/// `channels` as given. Radiance rank 1: sun breaks [0, 1, 2, 3],
+/// zenith and emphasis breaks [0, π], per configuration [sun ×4,
+/// zenith ×2, emphasis ×2]. Polarisation rank 1: sun breaks [0, π],
+/// zenith breaks [0, π/2, π], per configuration [sun ×2, zenith ×3].
+/// Transmittance: 2 × 2 nodes, √T = 1 everywhere.
+fn fit(
+    elevations_deg: &[f64],
+    channels: usize,
+    rad: impl Fn(usize) -> [f64; 8],
+    pol: impl Fn(usize) -> [f64; 5],
+) -> DatasetFit {
+    let configs = elevations_deg.len() * channels;
+    DatasetFit {
+        axes: Axes {
+            visibilities_km: vec![40.0],
+            albedos: vec![0.5],
+            altitudes_m: vec![0.0],
+            elevations_deg: elevations_deg.to_vec(),
+            channels,
+            channel_start_nm: 400.0,
+            channel_width_nm: 40.0,
+        },
+        radiance: Radiance {
+            rank: 1,
+            sun_breaks: vec![0.0, 1.0, 2.0, 3.0],
+            zenith_breaks: vec![0.0, PI],
+            emph_breaks: vec![0.0, PI],
+            zenith_scales: vec![],
+            coefs: (0..configs).flat_map(&rad).collect(),
+        },
+        transmittance: Transmittance {
+            d_dim: 2,
+            a_dim: 2,
+            altitudes_m: vec![0.0],
+            visibilities_km: vec![40.0],
+            rank: 1,
+            u: vec![1.0; 4],
+            v: vec![1.0; channels],
+        },
+        polarisation: Some(Polarisation {
+            rank: 1,
+            sun_breaks: vec![0.0, PI],
+            zenith_breaks: vec![0.0, FRAC_PI_2, PI],
+            coefs: (0..configs).flat_map(&pol).collect(),
+        }),
+    }
+}
+
+fn model(fit: &DatasetFit) -> Model {
+    let dataset = Dataset::encode(fit, "test").unwrap();
+    Model::new("test", dataset, SolarSpectrum::kurucz().unwrap()).unwrap()
+}
+
+fn view(gamma: f64, zero: f64, shadow: f64, elevation: f64) -> Parameters {
+    Parameters {
+        theta: zero,
+        gamma,
+        shadow,
+        zero,
+        elevation,
+        altitude_m: 50.0,
+        visibility_km: 40.0,
+        albedo: 0.5,
+    }
+}
+
+const ONES: [f64; 5] = [1.0; 5];
+
+#[test]
+fn radiance_is_piecewise_linear_in_gamma_and_alpha() {
+    // sun(γ) = 0.5 + γ/4 at the breaks, zenith(α) = 1 + α/π.
+    let m = model(&fit(
+        &[0.0, 30.0],
+        1,
+        |_| [0.5, 0.75, 1.0, 1.25, 1.0, 2.0, 1.0, 1.0],
+        |_| ONES,
+    ));
+    for gamma in [0.0f64, 0.3, 1.0, 1.7, 2.5, 3.0, 3.1, -0.2] {
+        for (zero, shadow, elevation) in [(0.4, 2.0, 0.2), (1.3, 0.7, -0.05), (2.0, 2.9, 0.0)] {
+            let alpha = if elevation < 0.0 { shadow } else { zero };
+            let expected = (0.5 + gamma.clamp(0.0, 3.0) / 4.0) * (1.0 + alpha / PI);
+            let got = m.sky_radiance(&view(gamma, zero, shadow, elevation), 420.0);
+            assert!(
+                (got - expected).abs() < 1e-12,
+                "γ {gamma} α {alpha}: {got} vs {expected}"
+            );
+        }
+    }
+}
+
+#[test]
+fn emphasis_multiplies_and_negative_radiance_is_clamped() {
+    let m = model(&fit(&[0.0], 1, |_| [1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 1.0, 0.5], |_| ONES));
+    let got = m.sky_radiance(&view(0.5, 1.2, 0.0, 0.1), 420.0);
+    assert!((got - 2.0 * (1.0 - 0.5 * 1.2 / PI)).abs() < 1e-12, "{got}");
+    let m = model(&fit(
+        &[0.0],
+        1,
+        |_| [-1.0, -1.0, -0.5, 0.5, 2.0, 2.0, 1.0, 1.0],
+        |_| ONES,
+    ));
+    assert_eq!(m.sky_radiance(&view(0.5, 1.2, 0.0, 0.1), 420.0), 0.0);
+    let got = m.sky_radiance(&view(2.5, 1.2, 0.0, 0.1), 420.0);
+    assert!(
+        (got - 0.0).abs() < 1e-15 && got >= 0.0,
+        "the clamp is applied after the emphasis: {got}"
+    );
+    let got = m.sky_radiance(&view(2.75, 1.2, 0.0, 0.1), 420.0);
+    assert!((got - 0.5).abs() < 1e-12, "{got}");
+}
+
+#[test]
+fn elevation_is_interpolated_linearly_and_tiny_factors_are_skipped() {
+    let m = model(&fit(
+        &[0.0, 30.0],
+        1,
+        |c| {
+            [[1.0; 4], [3.0; 4]][c]
+                .into_iter()
+                .chain([1.0; 4])
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap()
+        },
+        |_| ONES,
+    ));
+    let at = |deg: f64| m.sky_radiance(&view(0.5, 1.0, 1.0, deg.to_radians()), 420.0);
+    assert!((at(10.0) - (1.0 + 2.0 / 3.0)).abs() < 1e-12);
+    assert!((at(22.5) - 2.5).abs() < 1e-12);
+    assert_eq!(at(-5.0), 1.0);
+    assert_eq!(at(45.0), 3.0);
+    // A factor of 5·10⁻⁷ is skipped: the lower configuration exactly.
+    assert_eq!(at(30.0 * 5e-7), 1.0);
+    assert!((at(30.0 * 2e-6) - (1.0 + 4e-6)).abs() < 1e-12);
+}
+
+#[test]
+fn a_wavelength_takes_its_channels_value() {
+    let m = model(&fit(
+        &[0.0],
+        2,
+        |c| {
+            [[1.0; 4], [2.0; 4]][c]
+                .into_iter()
+                .chain([1.0; 4])
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap()
+        },
+        |_| ONES,
+    ));
+    let p = view(0.5, 1.0, 1.0, 0.1);
+    for (lambda, expected) in [
+        (399.99, 0.0),
+        (400.0, 1.0),
+        (439.999, 1.0),
+        (440.0, 2.0),
+        (479.999, 2.0),
+        (480.0, 0.0),
+        (f64::NAN, 0.0),
+    ] {
+        assert_eq!(m.sky_radiance(&p, lambda), expected, "λ {lambda}");
+    }
+    assert_eq!(m.transmittance(&p, 480.0, 1000.0), 0.0);
+    assert_eq!(m.transmittance(&p, 399.0, 1000.0), 0.0);
+    assert_eq!(m.polarisation(&p, 480.0).unwrap(), 0.0);
+    assert_eq!(m.sun_radiance(&view(0.0, 0.0, 0.0, 1.0), 480.0), 0.0);
+}
+
+#[test]
+fn polarisation_is_the_negated_sum_at_alpha_zero_unclamped() {
+    let rad = |_| [1.0; 8];
+    // sun = 1, zenith(x) = 2x/π: α is θ′ even for a sun below the horizon.
+    let m = model(&fit(&[0.0], 1, rad, |_| [1.0, 1.0, 0.0, 1.0, 2.0]));
+    let got = m.polarisation(&view(0.5, 1.0, 2.0, -0.1), 420.0).unwrap();
+    assert!((got + 2.0 / PI).abs() < 1e-12, "{got}");
+    let m = model(&fit(&[0.0], 1, rad, |_| [-1.0, -1.0, 1.0, 1.0, 1.0]));
+    assert_eq!(m.polarisation(&view(0.5, 1.0, 2.0, 0.1), 420.0).unwrap(), 1.0);
+    let mut no_polarisation = fit(&[0.0], 1, rad, |_| ONES);
+    no_polarisation.polarisation = None;
+    let e = model(&no_polarisation)
+        .polarisation(&view(0.5, 1.0, 2.0, 0.1), 420.0)
+        .unwrap_err();
+    assert!(e.to_string().contains("no polarisation"), "{e}");
+}
+
+/// Transmittance: 2 observer altitudes (0, 1000 m), 2 visibilities
+/// (20, 60 km); √T at the nodes (d, a) of the lower observer altitude
+/// `u0`, half of it at the upper one; V = 1 at 20 km, 0.5 at 60 km.
+fn transmittance_model(u0: [f64; 4]) -> Model {
+    let mut f = fit(&[0.0], 1, |_| [1.0; 8], |_| ONES);
+    f.transmittance = Transmittance {
+        d_dim: 2,
+        a_dim: 2,
+        altitudes_m: vec![0.0, 1000.0],
+        visibilities_km: vec![20.0, 60.0],
+        rank: 1,
+        u: u0.iter().copied().chain(u0.iter().map(|u| u / 2.0)).collect(),
+        v: vec![1.0, 1.0, 0.5, 0.5],
+    };
+    model(&f)
+}
+
+fn path(theta: f64, altitude_m: f64, visibility_km: f64) -> Parameters {
+    Parameters {
+        theta,
+        altitude_m,
+        visibility_km,
+        ..view(0.0, theta, 0.0, 0.5)
+    }
+}
+
+// u(d, a) in U's order: (d0, a0), (d0, a1), (d1, a0), (d1, a1).
+const U0: [f64; 4] = [0.875, 0.75, 0.625, 0.5];
+
+#[test]
+fn transmittance_at_the_nodes_and_between_them() {
+    let m = transmittance_model(U0);
+    // On the ground looking up over 0 m: the node (0, 0).
+    assert_eq!(m.transmittance(&path(0.0, 0.0, 20.0), 420.0, 0.0), 0.875 * 0.875);
+    // Looking down from the ground: no path at all.
+    assert_eq!(m.transmittance(&path(1.8, 0.0, 20.0), 420.0, 5000.0), 0.875 * 0.875);
+    // Straight up to 6.25 km: halfway (in altitude³) to the 12.5 km node.
+    let got = m.transmittance(&path(0.0, 0.0, 20.0), 420.0, 6250.0);
+    assert!((got - 0.8125f64.powi(2)).abs() < 1e-12, "{got}");
+    // Straight up through the top: the last altitude node.
+    assert_eq!(m.transmittance(&path(0.0, 0.0, 20.0), 420.0, f64::MAX), 0.75 * 0.75);
+    // Between the visibilities (40 km) and observer altitudes (250 m).
+    let got = m.transmittance(&path(0.0, 0.0, 40.0), 420.0, 0.0);
+    assert!((got - (0.75 * 0.875f64).powi(2)).abs() < 1e-12, "{got}");
+    // At 250 m the path's end is 250 m up (2 % of the way to the 12.5 km
+    // node in altitude³), and a quarter of the way to the upper
+    // observer altitude, whose values are halved.
+    let root = (0.875 + (0.75 - 0.875) * 0.02) * (1.0 - 0.25 * 0.5);
+    let got = m.transmittance(&path(0.0, 250.0, 20.0), 420.0, 0.0);
+    assert!((got - root * root).abs() < 1e-12, "{got}");
+}
+
+#[test]
+fn a_slanted_path_is_bilinear_in_altitude_cubed_and_distance_to_the_fourth() {
+    let m = transmittance_model(U0);
+    let (theta, h, s) = (80f64.to_radians(), 1000.0, 20_000.0);
+    // The path's end by the law of cosines, its ground arc by atan2.
+    let r0 = PLANET_RADIUS_M + h;
+    let r = (r0 * r0 + s * s + 2.0 * r0 * s * theta.cos()).sqrt();
+    let arc = (s * theta.sin()).atan2(r0 + s * theta.cos()) * PLANET_RADIUS_M;
+    let a = (r - PLANET_RADIUS_M) / TOP_M / 0.125;
+    let d = arc / MAX_ARC_M / 0.0625;
+    assert!(
+        a > 0.0 && a < 1.0 && d > 0.0 && d < 1.0,
+        "inside the first cell: {a} {d}"
+    );
+    let root = (1.0 - d) * ((1.0 - a) * U0[0] + a * U0[1]) + d * ((1.0 - a) * U0[2] + a * U0[3]);
+    // At the upper observer altitude node: U halved.
+    let got = m.transmittance(&path(theta, h, 20.0), 420.0, s);
+    assert!(
+        (got - (root / 2.0).powi(2)).abs() < 1e-9,
+        "{got} vs {}",
+        (root / 2.0).powi(2)
+    );
+}
+
+#[test]
+fn negative_node_values_are_clamped_before_the_altitude_interpolation() {
+    let m = transmittance_model([-0.5, 0.5, 0.0, 0.0]);
+    assert_eq!(m.transmittance(&path(0.0, 0.0, 20.0), 420.0, 0.0), 0.0);
+    let got = m.transmittance(&path(0.0, 0.0, 20.0), 420.0, 6250.0);
+    assert!((got - 0.0625).abs() < 1e-12, "(0 + 0.5)/2 squared: {got}");
+}
+
+#[test]
+fn the_sun_is_its_disc_radiance_times_the_transmittance() {
+    let m = transmittance_model(U0);
+    let solar = SolarSpectrum::kurucz().unwrap();
+    let omega = 2.0 * PI * (1.0 - SUN_RADIUS.cos());
+    // From the ground straight up through the top: T = u(d0, a1)².
+    let mut p = path(0.0, 0.0, 20.0);
+    p.gamma = 0.004;
+    let expected = solar.irradiance(420.0).unwrap() / omega * 0.75 * 0.75;
+    assert!((m.sun_radiance(&p, 420.0) / expected - 1.0).abs() < 1e-9);
+    p.gamma = 0.0047;
+    assert_eq!(m.sun_radiance(&p, 420.0), 0.0);
+}
+
+#[test]
+fn an_inconsistent_dataset_is_refused() {
+    let mut dataset = Dataset::encode(&fit(&[0.0], 1, |_| [1.0; 8], |_| ONES), "t").unwrap();
+    dataset.radiance.coefs.pop();
+    let e = Model::new("broken", dataset, SolarSpectrum::kurucz().unwrap()).unwrap_err();
+    assert!(e.to_string().starts_with("broken: radiance: 7 values"), "{e}");
 }

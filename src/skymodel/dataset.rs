@@ -254,15 +254,61 @@ impl Dataset {
     pub fn encode(fit: &DatasetFit, name: &str) -> Result<Dataset> {
         let err = |m: String| Error::data(name, m);
         let axes = &fit.axes;
-        check_axes(axes).map_err(err)?;
+        check_shape(fit).map_err(err)?;
         let polarisation = fit.polarisation.as_ref().map(|p| encode_polarisation(p, axes));
         Ok(Dataset {
             axes: axes.clone(),
             radiance: encode_radiance(&fit.radiance, axes).map_err(err)?,
-            transmittance: encode_transmittance(&fit.transmittance, axes.channels).map_err(err)?,
+            transmittance: encode_transmittance(&fit.transmittance).map_err(err)?,
             polarisation: polarisation.transpose().map_err(err)?,
         })
     }
+}
+
+impl<T> Dataset<T> {
+    /// Checks what reading and evaluating rely on: the counts, ascending
+    /// axes and breaks, and tables as long as their shapes call for. (A
+    /// dataset that [`Dataset::from_bytes`] or [`Dataset::encode`] made
+    /// passes.)
+    pub fn check(&self, name: &str) -> Result<()> {
+        check_shape(self).map_err(|e| Error::data(name, e))
+    }
+}
+
+fn check_shape<T>(d: &Dataset<T>) -> Result<(), String> {
+    check_axes(&d.axes)?;
+    let configs = d.axes.configurations();
+    let r = &d.radiance;
+    check_count("rank", r.rank, 1)?;
+    check_breaks("sunBreaks", &r.sun_breaks)?;
+    check_breaks("zenithBreaks", &r.zenith_breaks)?;
+    check_breaks("emphBreaks", &r.emph_breaks)?;
+    check_len("radiance", r.coefs.len(), configs.saturating_mul(r.config_len()))?;
+    let t = &d.transmittance;
+    for (what, n) in [("dDim", t.d_dim), ("aDim", t.a_dim), ("rankTrans", t.rank)] {
+        check_count(what, n, 1)?;
+    }
+    for (what, values) in [
+        ("altitudesTrans", &t.altitudes_m),
+        ("visibilitiesTrans", &t.visibilities_km),
+    ] {
+        check_count(what, values.len(), 1)?;
+        check_axis(what, values)?;
+    }
+    let (n_alt, n_vis) = (t.altitudes_m.len(), t.visibilities_km.len());
+    check_len("transmittance U", t.u.len(), product([n_alt, t.d_dim, t.a_dim, t.rank]))?;
+    check_len(
+        "transmittance V",
+        t.v.len(),
+        product([n_vis, n_alt, d.axes.channels, t.rank]),
+    )?;
+    if let Some(p) = &d.polarisation {
+        check_count("rankPol", p.rank, 1)?;
+        check_breaks("sunBreaksPol", &p.sun_breaks)?;
+        check_breaks("zenithBreaksPol", &p.zenith_breaks)?;
+        check_len("polarisation", p.coefs.len(), configs.saturating_mul(p.config_len()))?;
+    }
+    Ok(())
 }
 
 /// Checks a configuration axis: finite and strictly ascending (the
@@ -324,6 +370,13 @@ fn check_count(what: &str, n: usize, min: usize) -> Result<(), String> {
     }
 }
 
+/// The product of a table's dimensions (saturated: no table is that long).
+fn product(dims: [usize; 4]) -> usize {
+    dims.iter()
+        .try_fold(1usize, |p, &d| p.checked_mul(d))
+        .unwrap_or(usize::MAX)
+}
+
 /// Checks a table's length against its shape.
 fn check_len(what: &str, len: usize, expected: usize) -> Result<(), String> {
     match len == expected {
@@ -361,15 +414,6 @@ fn zenith_scale(zenith: &[f64]) -> Result<f64, String> {
 }
 
 fn encode_radiance(fit: &Radiance<f64>, axes: &Axes) -> Result<Radiance, String> {
-    check_count("rank", fit.rank, 1)?;
-    for (what, breaks) in [
-        ("sunBreaks", &fit.sun_breaks),
-        ("zenithBreaks", &fit.zenith_breaks),
-        ("emphBreaks", &fit.emph_breaks),
-    ] {
-        check_breaks(what, breaks)?;
-    }
-    check_len("radiance", fit.coefs.len(), axes.configurations() * fit.config_len())?;
     let mut out = Radiance {
         rank: fit.rank,
         sun_breaks: fit.sun_breaks.clone(),
@@ -403,12 +447,9 @@ fn encode_radiance(fit: &Radiance<f64>, axes: &Axes) -> Result<Radiance, String>
     Ok(out)
 }
 
-fn encode_transmittance(fit: &Transmittance<f64>, channels: usize) -> Result<Transmittance, String> {
-    for (what, n) in [("dDim", fit.d_dim), ("aDim", fit.a_dim), ("rankTrans", fit.rank)] {
-        check_count(what, n, 1)?;
-    }
+fn encode_transmittance(fit: &Transmittance<f64>) -> Result<Transmittance, String> {
+    // Rounded to f32, an axis must still ascend.
     let axis = |what: &str, values: &[f64]| -> Result<Vec<f64>, String> {
-        check_count(what, values.len(), 1)?;
         let rounded = values
             .iter()
             .map(|&x| to_f32(x).map(f64::from))
@@ -416,9 +457,6 @@ fn encode_transmittance(fit: &Transmittance<f64>, channels: usize) -> Result<Tra
         let rounded = rounded.map_err(|e| format!("{what}: {e}"))?;
         check_axis(what, &rounded).map(|_| rounded)
     };
-    let (n_alt, n_vis) = (fit.altitudes_m.len(), fit.visibilities_km.len());
-    check_len("transmittance U", fit.u.len(), n_alt * fit.d_dim * fit.a_dim * fit.rank)?;
-    check_len("transmittance V", fit.v.len(), n_vis * n_alt * channels * fit.rank)?;
     let table = |what: &str, values: &[f64]| -> Result<Vec<f32>, String> {
         let value = |(i, &x)| to_f32(x).map_err(|e| format!("transmittance {what}[{i}]: {e}"));
         values.iter().enumerate().map(value).collect()
@@ -435,14 +473,6 @@ fn encode_transmittance(fit: &Transmittance<f64>, channels: usize) -> Result<Tra
 }
 
 fn encode_polarisation(fit: &Polarisation<f64>, axes: &Axes) -> Result<Polarisation, String> {
-    check_count("rankPol", fit.rank, 1)?;
-    check_breaks("sunBreaksPol", &fit.sun_breaks)?;
-    check_breaks("zenithBreaksPol", &fit.zenith_breaks)?;
-    check_len(
-        "polarisation",
-        fit.coefs.len(),
-        axes.configurations() * fit.config_len(),
-    )?;
     let value = |(i, &x): (usize, &f64)| {
         let (config, k) = (i / fit.config_len(), i / fit.component_len() % fit.rank);
         to_f32(x).map_err(|e| format!("polarisation of {}, rank component {k}: {e}", axes.describe(config)))
@@ -765,11 +795,6 @@ impl<'a> Reader<'a> {
         };
         let altitudes_m = axis(n_alt, "altitudesTrans")?;
         let visibilities_km = axis(n_vis, "visibilitiesTrans")?;
-        let product = |dims: [usize; 4]| {
-            dims.iter()
-                .try_fold(1usize, |p, &d| p.checked_mul(d))
-                .unwrap_or(usize::MAX)
-        };
         let (mut u, mut v) = (Vec::new(), Vec::new());
         self.f32s(product([n_alt, d_dim, a_dim, rank]), Field::Named("transU"), &mut u)?;
         self.f32s(product([n_vis, n_alt, channels, rank]), Field::Named("transV"), &mut v)?;
