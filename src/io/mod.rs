@@ -2,6 +2,7 @@
 //! written atomically.
 
 pub mod atomic;
+pub mod canvas;
 pub mod exr;
 pub mod output;
 pub mod preview;

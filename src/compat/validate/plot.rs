@@ -9,6 +9,7 @@ use std::path::Path;
 
 use super::case::CaseResult;
 use crate::error::Result;
+use crate::io::canvas::Canvas;
 use crate::io::preview::write_png;
 
 const WIDTH: usize = 900;
@@ -16,75 +17,6 @@ const HEIGHT: usize = 420;
 const MARGIN_LEFT: usize = 70;
 const MARGIN_RIGHT: usize = 20;
 const MARGIN_Y: usize = 25;
-
-/// An RGB raster.
-struct Canvas {
-    pixels: Vec<u8>,
-}
-
-impl Canvas {
-    fn new() -> Canvas {
-        Canvas {
-            pixels: vec![255; WIDTH * HEIGHT * 3],
-        }
-    }
-
-    fn set(&mut self, x: i64, y: i64, rgb: [u8; 3]) {
-        if x >= 0 && y >= 0 && (x as usize) < WIDTH && (y as usize) < HEIGHT {
-            let i = 3 * (y as usize * WIDTH + x as usize);
-            self.pixels[i..i + 3].copy_from_slice(&rgb);
-        }
-    }
-
-    fn hline(&mut self, x0: i64, x1: i64, y: i64, rgb: [u8; 3]) {
-        for x in x0..=x1 {
-            self.set(x, y, rgb);
-        }
-    }
-
-    fn vline(&mut self, x: i64, y0: i64, y1: i64, rgb: [u8; 3]) {
-        for y in y0.min(y1)..=y0.max(y1) {
-            self.set(x, y, rgb);
-        }
-    }
-
-    /// Text in the 3×5 font, scaled ×2, top-left at (x, y).
-    fn text(&mut self, x: i64, y: i64, s: &str, rgb: [u8; 3]) {
-        for (k, c) in s.chars().enumerate() {
-            let rows = glyph(c);
-            for (r, bits) in rows.iter().enumerate() {
-                for col in 0..3 {
-                    if bits & (0b100 >> col) != 0 {
-                        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                            self.set(x + 8 * k as i64 + 2 * col + dx, y + 2 * r as i64 + dy, rgb);
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// A 3×5 glyph, one row per entry, bit 2 = left column.
-fn glyph(c: char) -> [u8; 5] {
-    match c {
-        '0' => [0b111, 0b101, 0b101, 0b101, 0b111],
-        '1' => [0b010, 0b110, 0b010, 0b010, 0b111],
-        '2' => [0b111, 0b001, 0b111, 0b100, 0b111],
-        '3' => [0b111, 0b001, 0b111, 0b001, 0b111],
-        '4' => [0b101, 0b101, 0b111, 0b001, 0b001],
-        '5' => [0b111, 0b100, 0b111, 0b001, 0b111],
-        '6' => [0b111, 0b100, 0b111, 0b101, 0b111],
-        '7' => [0b111, 0b001, 0b010, 0b010, 0b010],
-        '8' => [0b111, 0b101, 0b111, 0b101, 0b111],
-        '9' => [0b111, 0b101, 0b111, 0b001, 0b111],
-        '.' => [0b000, 0b000, 0b000, 0b000, 0b010],
-        '-' => [0b000, 0b000, 0b111, 0b000, 0b000],
-        '+' => [0b000, 0b010, 0b111, 0b010, 0b000],
-        'e' => [0b000, 0b111, 0b111, 0b100, 0b111],
-        _ => [0; 5],
-    }
-}
 
 /// The plot's points: ratio, half-width of the ±2σ bar (as a ratio) and
 /// whether the value is in the statistics; intensities only.
@@ -115,7 +47,7 @@ fn y_range(points: &[(f64, f64, bool)]) -> (f64, f64) {
 pub fn write_ratio_plot(path: &Path, r: &CaseResult) -> Result<()> {
     let pts = points(r);
     let (lo, hi) = y_range(&pts);
-    let mut c = Canvas::new();
+    let mut c = Canvas::new(WIDTH, HEIGHT);
     let (x0, x1) = (MARGIN_LEFT as i64, (WIDTH - MARGIN_RIGHT) as i64);
     let (y0, y1) = (MARGIN_Y as i64, (HEIGHT - MARGIN_Y) as i64);
     let y_of = |v: f64| y1 - ((v - lo) / (hi - lo) * (y1 - y0) as f64).round() as i64;
