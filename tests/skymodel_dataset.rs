@@ -10,7 +10,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::skymodel::angles::PLANET_RADIUS_M;
-use atmosim::skymodel::dataset::{Axes, Dataset, DatasetFit, Polarisation, Radiance, Transmittance, nearest_half};
+use atmosim::skymodel::dataset::{
+    Axes, ComponentFit, Dataset, DatasetFit, PolarisationFit, RadianceConfigFit, RadianceFit, Transmittance,
+    nearest_half,
+};
 use atmosim::skymodel::runtime::{Model, Parameters, SUN_RADIUS};
 use half::f16;
 
@@ -65,14 +68,7 @@ fn tiny_fit() -> DatasetFit {
     }
     DatasetFit {
         axes,
-        radiance: Radiance {
-            rank: RANK,
-            sun_breaks: SUN_BREAKS.to_vec(),
-            zenith_breaks: ZENITH_BREAKS.to_vec(),
-            emph_breaks: EMPH_BREAKS.to_vec(),
-            zenith_scales: Vec::new(),
-            coefs,
-        },
+        radiance: radiance(RANK, [&SUN_BREAKS, &ZENITH_BREAKS, &EMPH_BREAKS], 8, coefs),
         transmittance: Transmittance {
             d_dim: 2,
             a_dim: 3,
@@ -82,13 +78,69 @@ fn tiny_fit() -> DatasetFit {
             u: (0..12).map(|i| 0.5 + 0.01 * i as f64).collect(),
             v: (0..4).map(|i| 1.0 - 0.1 * i as f64).collect(),
         },
-        polarisation: Some(Polarisation {
-            rank: 1,
-            sun_breaks: vec![0.0, PI],
-            zenith_breaks: vec![0.0, 1.5, PI],
-            coefs: (0..8 * 5).map(|i| 0.001 * i as f64 - 0.01).collect(),
-        }),
+        polarisation: Some(polarisation(
+            1,
+            [&[0.0, PI], &[0.0, 1.5, PI]],
+            8,
+            (0..8 * 5).map(|i| 0.001 * i as f64 - 0.01),
+        )),
     }
+}
+
+/// Rank components of `rank` × (`n_sun`, `n_zenith`) values from `values`.
+fn components(values: &mut impl Iterator<Item = f64>, rank: usize, n_sun: usize, n_zenith: usize) -> Vec<ComponentFit> {
+    let mut take = |n: usize| values.take(n).collect::<Vec<f64>>();
+    (0..rank)
+        .map(|_| ComponentFit {
+            sun: take(n_sun),
+            zenith: take(n_zenith),
+        })
+        .collect()
+}
+
+/// Radiance from values in the file's order: per configuration `rank` ×
+/// (sun, zenith), then the emphasis values.
+fn radiance(rank: usize, breaks: [&[f64]; 3], configs: usize, values: impl IntoIterator<Item = f64>) -> RadianceFit {
+    let [sun, zenith, emph] = breaks;
+    let mut values = values.into_iter();
+    RadianceFit {
+        sun_breaks: sun.to_vec(),
+        zenith_breaks: zenith.to_vec(),
+        emph_breaks: emph.to_vec(),
+        configs: (0..configs)
+            .map(|_| RadianceConfigFit {
+                components: components(&mut values, rank, sun.len(), zenith.len()),
+                emph: values.by_ref().take(emph.len()).collect(),
+            })
+            .collect(),
+    }
+}
+
+/// Polarisation from values in the file's order.
+fn polarisation(
+    rank: usize,
+    breaks: [&[f64]; 2],
+    configs: usize,
+    values: impl IntoIterator<Item = f64>,
+) -> PolarisationFit {
+    let [sun, zenith] = breaks;
+    let mut values = values.into_iter();
+    PolarisationFit {
+        sun_breaks: sun.to_vec(),
+        zenith_breaks: zenith.to_vec(),
+        configs: (0..configs)
+            .map(|_| components(&mut values, rank, sun.len(), zenith.len()))
+            .collect(),
+    }
+}
+
+/// A fit's radiance values in the file's order.
+fn flat(fit: &RadianceFit) -> Vec<f64> {
+    let component = |c: &ComponentFit| c.sun.iter().chain(&c.zenith).copied().collect::<Vec<_>>();
+    fit.configs
+        .iter()
+        .flat_map(|c| c.components.iter().flat_map(component).chain(c.emph.iter().copied()))
+        .collect()
 }
 
 fn tiny() -> Dataset {
@@ -142,7 +194,8 @@ fn the_bytes_have_the_runtimes_layout() {
     assert_eq!(c.list(), SUN_BREAKS);
     assert_eq!(c.list(), ZENITH_BREAKS);
     assert_eq!(c.list(), EMPH_BREAKS);
-    let mut fitted = fit.radiance.coefs.iter();
+    let fitted = flat(&fit.radiance);
+    let mut fitted = fitted.iter();
     let mut decoded = dataset.radiance.coefs.iter();
     for config in 0..8 {
         for k in 0..RANK {
@@ -186,7 +239,15 @@ fn the_bytes_have_the_runtimes_layout() {
     assert_eq!(c.i32(), 1);
     assert_eq!(c.list(), [0.0, PI]);
     assert_eq!(c.list(), [0.0, 1.5, PI]);
-    for want in &fit.polarisation.as_ref().unwrap().coefs {
+    for want in fit
+        .polarisation
+        .as_ref()
+        .unwrap()
+        .configs
+        .iter()
+        .flatten()
+        .flat_map(|c| c.sun.iter().chain(&c.zenith))
+    {
         assert_eq!(c.f32(), *want as f32);
     }
     assert_eq!(c.1, bytes.len(), "nothing after the polarisation part");
@@ -383,20 +444,29 @@ fn fits_that_the_file_cannot_hold_are_refused() {
         change(&mut fit);
         Dataset::encode(&fit, "fit").unwrap_err().to_string()
     };
-    let per_config = RANK * 5 + 4;
-    let e = refuse(&|f| f.radiance.coefs[3 * per_config + 5 + 1] = f64::NAN);
+    let e = refuse(&|f| f.radiance.configs[3].components[1].sun[1] = f64::NAN);
     assert!(e.contains("configuration 3 (visibility 0, albedo 0, altitude 0, elevation 1, channel 1), rank component 1: sun value NaN is not finite"), "{e}");
-    let e = refuse(&|f| f.radiance.coefs[per_config] = 7.0e4);
+    let e = refuse(&|f| f.radiance.configs[1].components[0].sun[0] = 7.0e4);
     assert!(e.contains("configuration 1 (visibility 0, albedo 0, altitude 0, elevation 0, channel 1), rank component 0: sun value 70000 is beyond the half range"), "{e}");
-    let e = refuse(&|f| f.radiance.coefs[3] = f64::INFINITY);
+    let e = refuse(&|f| f.radiance.configs[0].components[0].zenith[0] = f64::INFINITY);
     assert!(e.contains("configuration 0 (visibility 0, albedo 0, altitude 0, elevation 0, channel 0), rank component 0: zenith value inf"), "{e}");
-    let e = refuse(&|f| f.radiance.coefs[per_config - 1] = -1.0e9);
+    let e = refuse(&|f| f.radiance.configs[0].emph[3] = -1.0e9);
     assert!(e.contains("configuration 0 (visibility 0, albedo 0, altitude 0, elevation 0, channel 0): emphasis value -1000000000 is beyond"), "{e}");
-    let e = refuse(&|f| f.radiance.coefs.pop().map(drop).unwrap_or(()));
-    assert!(e.contains("radiance: 111 values, the shape calls for 112"), "{e}");
+    let e = refuse(&|f| drop(f.radiance.configs.pop()));
+    assert!(e.contains("radiance: 7 configurations, the axes call for 8"), "{e}");
+    let e = refuse(&|f| {
+        f.radiance.configs[2].components[0].zenith.pop();
+    });
+    assert!(e.contains("radiance of configuration 2 (visibility 0, albedo 0, altitude 0, elevation 1, channel 0), rank component 0: 3 sun and 1 zenith values for 3 and 2 breaks"), "{e}");
+    let e = refuse(&|f| drop(f.radiance.configs[5].components.pop()));
+    assert!(e.contains("configuration 5 (visibility 1, albedo 0, altitude 0, elevation 0, channel 1): 1 rank components, the first configuration has 2"), "{e}");
+    let e = refuse(&|f| {
+        f.radiance.configs[4].emph.pop();
+    });
+    assert!(e.contains("3 emphasis values for 4 breaks"), "{e}");
     let e = refuse(&|f| f.transmittance.u[4] = f64::NAN);
     assert!(e.contains("transmittance U[4]: NaN is not finite in f32"), "{e}");
-    let e = refuse(&|f| f.polarisation.as_mut().unwrap().coefs[7] = 1e39);
+    let e = refuse(&|f| f.polarisation.as_mut().unwrap().configs[1][0].zenith[0] = 1e39);
     assert!(e.contains("polarisation of configuration 1 (visibility 0, albedo 0, altitude 0, elevation 0, channel 1), rank component 0"), "{e}");
     let e = refuse(&|f| f.radiance.emph_breaks = vec![0.0]);
     assert!(e.contains("emphBreaks: 1, must be in [2, "), "{e}");
@@ -407,8 +477,7 @@ fn fits_that_the_file_cannot_hold_are_refused() {
 #[test]
 fn a_zero_zenith_component_is_written_with_scale_one() {
     let mut fit = tiny_fit();
-    fit.radiance.coefs[3] = 0.0;
-    fit.radiance.coefs[4] = -0.0;
+    fit.radiance.configs[0].components[0].zenith = vec![0.0, -0.0];
     let dataset = Dataset::encode(&fit, "z").unwrap();
     assert_eq!(dataset.radiance.zenith_scales[0], 1.0);
     assert_eq!(&dataset.radiance.coefs[3..5], &[0.0, 0.0]);
@@ -459,14 +528,12 @@ fn fit(
             channel_start_nm: 400.0,
             channel_width_nm: 40.0,
         },
-        radiance: Radiance {
-            rank: 1,
-            sun_breaks: vec![0.0, 1.0, 2.0, 3.0],
-            zenith_breaks: vec![0.0, PI],
-            emph_breaks: vec![0.0, PI],
-            zenith_scales: vec![],
-            coefs: (0..configs).flat_map(&rad).collect(),
-        },
+        radiance: radiance(
+            1,
+            [&[0.0, 1.0, 2.0, 3.0], &[0.0, PI], &[0.0, PI]],
+            configs,
+            (0..configs).flat_map(&rad),
+        ),
         transmittance: Transmittance {
             d_dim: 2,
             a_dim: 2,
@@ -476,12 +543,12 @@ fn fit(
             u: vec![1.0; 4],
             v: vec![1.0; channels],
         },
-        polarisation: Some(Polarisation {
-            rank: 1,
-            sun_breaks: vec![0.0, PI],
-            zenith_breaks: vec![0.0, FRAC_PI_2, PI],
-            coefs: (0..configs).flat_map(&pol).collect(),
-        }),
+        polarisation: Some(polarisation(
+            1,
+            [&[0.0, PI], &[0.0, FRAC_PI_2, PI]],
+            configs,
+            (0..configs).flat_map(&pol),
+        )),
     }
 }
 

@@ -30,7 +30,7 @@
 //! before anything is allocated, and truncation or bytes after the last
 //! part are errors naming the field and its byte offset.
 //!
-//! Writing starts from fitted `f64` values ([`DatasetFit`], the same layout):
+//! Writing starts from fitted `f64` values ([`DatasetFit`]):
 //! [`Dataset::encode`] rounds them to the file's precisions (to nearest,
 //! ties to even) and decodes them back, so that the `Dataset` it returns is
 //! the one a reader of its bytes gets; [`Dataset::to_bytes`] and
@@ -186,13 +186,152 @@ pub struct Dataset<T = f32> {
 }
 
 /// A fitted dataset in double precision, for [`Dataset::encode`].
-pub type DatasetFit = Dataset<f64>;
-/// Fitted radiance (`zenith_scales` ignored).
-pub type RadianceFit = Radiance<f64>;
-/// A fitted transmittance part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetFit {
+    pub axes: Axes,
+    pub radiance: RadianceFit,
+    pub transmittance: TransmittanceFit,
+    pub polarisation: Option<PolarisationFit>,
+}
+
+/// Fitted radiance: the breaks and one entry per configuration, in file
+/// order ([`Axes::configuration`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadianceFit {
+    pub sun_breaks: Vec<f64>,
+    pub zenith_breaks: Vec<f64>,
+    pub emph_breaks: Vec<f64>,
+    pub configs: Vec<RadianceConfigFit>,
+}
+
+/// One configuration's rank components and emphasis values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadianceConfigFit {
+    pub components: Vec<ComponentFit>,
+    pub emph: Vec<f64>,
+}
+
+/// One rank component: values at the sun breaks and at the zenith breaks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComponentFit {
+    pub sun: Vec<f64>,
+    pub zenith: Vec<f64>,
+}
+
+/// A fitted transmittance part, laid out as the file's.
 pub type TransmittanceFit = Transmittance<f64>;
-/// A fitted polarisation part.
-pub type PolarisationFit = Polarisation<f64>;
+
+/// Fitted polarisation: the breaks and, per configuration, its rank
+/// components.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolarisationFit {
+    pub sun_breaks: Vec<f64>,
+    pub zenith_breaks: Vec<f64>,
+    pub configs: Vec<Vec<ComponentFit>>,
+}
+
+impl DatasetFit {
+    /// The fit in the file's layout (`f64`), every configuration holding
+    /// the first's rank and each list as many values as its breaks.
+    fn flatten(&self) -> Result<Dataset<f64>, String> {
+        check_axes(&self.axes)?;
+        let configs = self.axes.configurations();
+        let r = &self.radiance;
+        check_breaks("sunBreaks", &r.sun_breaks)?;
+        check_breaks("zenithBreaks", &r.zenith_breaks)?;
+        check_breaks("emphBreaks", &r.emph_breaks)?;
+        if let Some(p) = &self.polarisation {
+            check_breaks("sunBreaksPol", &p.sun_breaks)?;
+            check_breaks("zenithBreaksPol", &p.zenith_breaks)?;
+        }
+        let rank = r.configs.first().map_or(0, |c| c.components.len());
+        let radiance = Radiance {
+            rank,
+            sun_breaks: r.sun_breaks.clone(),
+            zenith_breaks: r.zenith_breaks.clone(),
+            emph_breaks: r.emph_breaks.clone(),
+            zenith_scales: Vec::new(),
+            coefs: self.flat(
+                "radiance",
+                r.configs.iter().map(|c| (&c.components[..], Some(&c.emph[..]))),
+                configs,
+                [&r.sun_breaks, &r.zenith_breaks, &r.emph_breaks],
+            )?,
+        };
+        let polarisation = match &self.polarisation {
+            None => None,
+            Some(p) => Some(Polarisation {
+                rank: p.configs.first().map_or(0, Vec::len),
+                sun_breaks: p.sun_breaks.clone(),
+                zenith_breaks: p.zenith_breaks.clone(),
+                coefs: self.flat(
+                    "polarisation",
+                    p.configs.iter().map(|c| (&c[..], None)),
+                    configs,
+                    [&p.sun_breaks, &p.zenith_breaks, &Vec::new()],
+                )?,
+            }),
+        };
+        Ok(Dataset {
+            axes: self.axes.clone(),
+            radiance,
+            transmittance: self.transmittance.clone(),
+            polarisation,
+        })
+    }
+
+    /// The values of `configs` (components, emphasis) one after another.
+    fn flat<'a>(
+        &self,
+        what: &str,
+        configs: impl ExactSizeIterator<Item = (&'a [ComponentFit], Option<&'a [f64]>)>,
+        expected: usize,
+        [sun, zenith, emph]: [&Vec<f64>; 3],
+    ) -> Result<Vec<f64>, String> {
+        if configs.len() != expected {
+            return Err(format!(
+                "{what}: {} configurations, the axes call for {expected}",
+                configs.len()
+            ));
+        }
+        let mut coefs = Vec::new();
+        let mut rank = None;
+        for (config, (components, emph_values)) in configs.enumerate() {
+            let at = || format!("{what} of {}", self.axes.describe(config));
+            let first = *rank.get_or_insert(components.len());
+            if first != components.len() {
+                let n = components.len();
+                return Err(format!(
+                    "{}: {n} rank components, the first configuration has {first}",
+                    at()
+                ));
+            }
+            for (k, c) in components.iter().enumerate() {
+                if c.sun.len() != sun.len() || c.zenith.len() != zenith.len() {
+                    let (s, z) = (c.sun.len(), c.zenith.len());
+                    return Err(format!(
+                        "{}, rank component {k}: {s} sun and {z} zenith values for {} and {} breaks",
+                        at(),
+                        sun.len(),
+                        zenith.len()
+                    ));
+                }
+                coefs.extend(c.sun.iter().chain(&c.zenith));
+            }
+            let emph_values = emph_values.unwrap_or_default();
+            if emph_values.len() != emph.len() {
+                return Err(format!(
+                    "{}: {} emphasis values for {} breaks",
+                    at(),
+                    emph_values.len(),
+                    emph.len()
+                ));
+            }
+            coefs.extend(emph_values);
+        }
+        Ok(coefs)
+    }
+}
 
 impl Dataset {
     /// Reads a dataset file.
@@ -253,6 +392,7 @@ impl Dataset {
     /// and tables of the wrong shape are errors naming where they are.
     pub fn encode(fit: &DatasetFit, name: &str) -> Result<Dataset> {
         let err = |m: String| Error::data(name, m);
+        let fit = &fit.flatten().map_err(err)?;
         let axes = &fit.axes;
         check_shape(fit).map_err(err)?;
         let polarisation = fit.polarisation.as_ref().map(|p| encode_polarisation(p, axes));
