@@ -113,20 +113,19 @@ impl Axes {
 /// out in memory: `rank` × (values at the sun breaks, then at the zenith
 /// breaks), then values at the emphasis breaks.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Radiance<T = f32> {
+pub struct Radiance {
     pub rank: usize,
     /// Breaks (rad) of γ, of α and of θ′.
     pub sun_breaks: Vec<f64>,
     pub zenith_breaks: Vec<f64>,
     pub emph_breaks: Vec<f64>,
     /// The file's zenithScale per configuration and rank component, kept so
-    /// that the file is written again bit for bit. (Ignored in a fit: the
-    /// writer chooses them.)
+    /// that the file is written again bit for bit.
     pub zenith_scales: Vec<f64>,
-    pub coefs: Vec<T>,
+    pub coefs: Vec<f32>,
 }
 
-impl<T> Radiance<T> {
+impl Radiance {
     /// Values per rank component: sun then zenith.
     pub fn component_len(&self) -> usize {
         self.sun_breaks.len() + self.zenith_breaks.len()
@@ -156,14 +155,14 @@ pub struct Transmittance<T = f32> {
 /// The polarisation tables: per configuration `rank` × (values at the sun
 /// breaks, then at the zenith breaks).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Polarisation<T = f32> {
+pub struct Polarisation {
     pub rank: usize,
     pub sun_breaks: Vec<f64>,
     pub zenith_breaks: Vec<f64>,
-    pub coefs: Vec<T>,
+    pub coefs: Vec<f32>,
 }
 
-impl<T> Polarisation<T> {
+impl Polarisation {
     /// Values per rank component: sun then zenith.
     pub fn component_len(&self) -> usize {
         self.sun_breaks.len() + self.zenith_breaks.len()
@@ -175,14 +174,13 @@ impl<T> Polarisation<T> {
     }
 }
 
-/// A dataset: as the runtime holds it after reading (`f32`), or as fitted
-/// ([`DatasetFit`], `f64`), in the same layout.
+/// A dataset as the runtime holds it after reading.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Dataset<T = f32> {
+pub struct Dataset {
     pub axes: Axes,
-    pub radiance: Radiance<T>,
-    pub transmittance: Transmittance<T>,
-    pub polarisation: Option<Polarisation<T>>,
+    pub radiance: Radiance,
+    pub transmittance: Transmittance,
+    pub polarisation: Option<Polarisation>,
 }
 
 /// A fitted dataset in double precision, for [`Dataset::encode`].
@@ -228,109 +226,6 @@ pub struct PolarisationFit {
     pub sun_breaks: Vec<f64>,
     pub zenith_breaks: Vec<f64>,
     pub configs: Vec<Vec<ComponentFit>>,
-}
-
-impl DatasetFit {
-    /// The fit in the file's layout (`f64`), every configuration holding
-    /// the first's rank and each list as many values as its breaks.
-    fn flatten(&self) -> Result<Dataset<f64>, String> {
-        check_axes(&self.axes)?;
-        let configs = self.axes.configurations();
-        let r = &self.radiance;
-        check_breaks("sunBreaks", &r.sun_breaks)?;
-        check_breaks("zenithBreaks", &r.zenith_breaks)?;
-        check_breaks("emphBreaks", &r.emph_breaks)?;
-        if let Some(p) = &self.polarisation {
-            check_breaks("sunBreaksPol", &p.sun_breaks)?;
-            check_breaks("zenithBreaksPol", &p.zenith_breaks)?;
-        }
-        let rank = r.configs.first().map_or(0, |c| c.components.len());
-        let radiance = Radiance {
-            rank,
-            sun_breaks: r.sun_breaks.clone(),
-            zenith_breaks: r.zenith_breaks.clone(),
-            emph_breaks: r.emph_breaks.clone(),
-            zenith_scales: Vec::new(),
-            coefs: self.flat(
-                "radiance",
-                r.configs.iter().map(|c| (&c.components[..], Some(&c.emph[..]))),
-                configs,
-                [&r.sun_breaks, &r.zenith_breaks, &r.emph_breaks],
-            )?,
-        };
-        let polarisation = match &self.polarisation {
-            None => None,
-            Some(p) => Some(Polarisation {
-                rank: p.configs.first().map_or(0, Vec::len),
-                sun_breaks: p.sun_breaks.clone(),
-                zenith_breaks: p.zenith_breaks.clone(),
-                coefs: self.flat(
-                    "polarisation",
-                    p.configs.iter().map(|c| (&c[..], None)),
-                    configs,
-                    [&p.sun_breaks, &p.zenith_breaks, &Vec::new()],
-                )?,
-            }),
-        };
-        Ok(Dataset {
-            axes: self.axes.clone(),
-            radiance,
-            transmittance: self.transmittance.clone(),
-            polarisation,
-        })
-    }
-
-    /// The values of `configs` (components, emphasis) one after another.
-    fn flat<'a>(
-        &self,
-        what: &str,
-        configs: impl ExactSizeIterator<Item = (&'a [ComponentFit], Option<&'a [f64]>)>,
-        expected: usize,
-        [sun, zenith, emph]: [&Vec<f64>; 3],
-    ) -> Result<Vec<f64>, String> {
-        if configs.len() != expected {
-            return Err(format!(
-                "{what}: {} configurations, the axes call for {expected}",
-                configs.len()
-            ));
-        }
-        let mut coefs = Vec::new();
-        let mut rank = None;
-        for (config, (components, emph_values)) in configs.enumerate() {
-            let at = || format!("{what} of {}", self.axes.describe(config));
-            let first = *rank.get_or_insert(components.len());
-            if first != components.len() {
-                let n = components.len();
-                return Err(format!(
-                    "{}: {n} rank components, the first configuration has {first}",
-                    at()
-                ));
-            }
-            for (k, c) in components.iter().enumerate() {
-                if c.sun.len() != sun.len() || c.zenith.len() != zenith.len() {
-                    let (s, z) = (c.sun.len(), c.zenith.len());
-                    return Err(format!(
-                        "{}, rank component {k}: {s} sun and {z} zenith values for {} and {} breaks",
-                        at(),
-                        sun.len(),
-                        zenith.len()
-                    ));
-                }
-                coefs.extend(c.sun.iter().chain(&c.zenith));
-            }
-            let emph_values = emph_values.unwrap_or_default();
-            if emph_values.len() != emph.len() {
-                return Err(format!(
-                    "{}: {} emphasis values for {} breaks",
-                    at(),
-                    emph_values.len(),
-                    emph.len()
-                ));
-            }
-            coefs.extend(emph_values);
-        }
-        Ok(coefs)
-    }
 }
 
 impl Dataset {
@@ -392,20 +287,22 @@ impl Dataset {
     /// and tables of the wrong shape are errors naming where they are.
     pub fn encode(fit: &DatasetFit, name: &str) -> Result<Dataset> {
         let err = |m: String| Error::data(name, m);
-        let fit = &fit.flatten().map_err(err)?;
         let axes = &fit.axes;
-        check_shape(fit).map_err(err)?;
+        check_axes(axes).map_err(err)?;
         let polarisation = fit.polarisation.as_ref().map(|p| encode_polarisation(p, axes));
-        Ok(Dataset {
+        let dataset = Dataset {
             axes: axes.clone(),
             radiance: encode_radiance(&fit.radiance, axes).map_err(err)?,
             transmittance: encode_transmittance(&fit.transmittance).map_err(err)?,
             polarisation: polarisation.transpose().map_err(err)?,
-        })
+        };
+        // What is left to check: the transmittance's shape.
+        dataset.check(name)?;
+        Ok(dataset)
     }
 }
 
-impl<T> Dataset<T> {
+impl Dataset {
     /// Checks what reading and evaluating rely on: the counts, ascending
     /// axes and breaks, and tables as long as their shapes call for. (A
     /// dataset that [`Dataset::from_bytes`] or [`Dataset::encode`] made
@@ -415,7 +312,7 @@ impl<T> Dataset<T> {
     }
 }
 
-fn check_shape<T>(d: &Dataset<T>) -> Result<(), String> {
+fn check_shape(d: &Dataset) -> Result<(), String> {
     check_axes(&d.axes)?;
     let configs = d.axes.configurations();
     let r = &d.radiance;
@@ -553,41 +450,87 @@ fn zenith_scale(zenith: &[f64]) -> Result<f64, String> {
     Ok(if max >= SMALLEST_SCALED_ZENITH { 1.0 / max } else { 1.0 })
 }
 
-fn encode_radiance(fit: &Radiance<f64>, axes: &Axes) -> Result<Radiance, String> {
+/// Checks that `configs` has one entry per configuration and that each
+/// holds as many components as the first; returns that rank.
+fn check_configs<C>(what: &str, configs: &[C], components: impl Fn(&C) -> usize, axes: &Axes) -> Result<usize, String> {
+    if configs.len() != axes.configurations() {
+        return Err(format!(
+            "{what}: {} configurations, the axes call for {}",
+            configs.len(),
+            axes.configurations()
+        ));
+    }
+    let rank = configs.first().map_or(0, &components);
+    check_count(&format!("{what} rank"), rank, 1)?;
+    match configs.iter().position(|c| components(c) != rank) {
+        Some(config) => {
+            let n = components(&configs[config]);
+            Err(format!(
+                "{what} of {}: {n} rank components, the first configuration has {rank}",
+                axes.describe(config)
+            ))
+        }
+        None => Ok(rank),
+    }
+}
+
+/// Checks a component's lengths against the breaks.
+fn check_component(c: &ComponentFit, n_sun: usize, n_zenith: usize) -> Result<(), String> {
+    if c.sun.len() != n_sun || c.zenith.len() != n_zenith {
+        let (s, z) = (c.sun.len(), c.zenith.len());
+        return Err(format!(
+            "{s} sun and {z} zenith values for {n_sun} and {n_zenith} breaks"
+        ));
+    }
+    Ok(())
+}
+
+fn encode_radiance(fit: &RadianceFit, axes: &Axes) -> Result<Radiance, String> {
+    check_breaks("sunBreaks", &fit.sun_breaks)?;
+    check_breaks("zenithBreaks", &fit.zenith_breaks)?;
+    check_breaks("emphBreaks", &fit.emph_breaks)?;
+    let rank = check_configs("radiance", &fit.configs, |c| c.components.len(), axes)?;
     let mut out = Radiance {
-        rank: fit.rank,
+        rank,
         sun_breaks: fit.sun_breaks.clone(),
         zenith_breaks: fit.zenith_breaks.clone(),
         emph_breaks: fit.emph_breaks.clone(),
-        zenith_scales: Vec::with_capacity(axes.configurations() * fit.rank),
-        coefs: Vec::with_capacity(fit.coefs.len()),
+        zenith_scales: Vec::with_capacity(axes.configurations() * rank),
+        coefs: Vec::new(),
     };
-    let n_sun = fit.sun_breaks.len();
-    for (config, c) in fit.coefs.chunks_exact(fit.config_len()).enumerate() {
-        let (components, emph) = c.split_at(fit.rank * fit.component_len());
-        for (k, comp) in components.chunks_exact(fit.component_len()).enumerate() {
-            let at = |e: String| format!("{}, rank component {k}: {e}", axes.describe(config));
-            let (sun, zenith) = comp.split_at(n_sun);
-            for &x in sun {
+    out.coefs.reserve(axes.configurations() * out.config_len());
+    for (config, c) in fit.configs.iter().enumerate() {
+        for (k, comp) in c.components.iter().enumerate() {
+            let at = |e: String| format!("radiance of {}, rank component {k}: {e}", axes.describe(config));
+            check_component(comp, fit.sun_breaks.len(), fit.zenith_breaks.len()).map_err(at)?;
+            for &x in &comp.sun {
                 out.coefs
                     .push(to_half(x).map_err(|e| at(format!("sun value {e}")))?.to_f32());
             }
-            let scale = zenith_scale(zenith).map_err(at)?;
+            let scale = zenith_scale(&comp.zenith).map_err(at)?;
             out.zenith_scales.push(scale);
-            for &z in zenith {
+            for &z in &comp.zenith {
                 let h = to_half(z * scale).map_err(|e| at(format!("scaled zenith value {e}")))?;
                 out.coefs.push(decode_zenith(h, scale).map_err(at)?);
             }
         }
-        for &x in emph {
-            let h = to_half(x).map_err(|e| format!("{}: emphasis value {e}", axes.describe(config)))?;
-            out.coefs.push(h.to_f32());
+        let at = |e: String| format!("radiance of {}: {e}", axes.describe(config));
+        if c.emph.len() != fit.emph_breaks.len() {
+            return Err(at(format!(
+                "{} emphasis values for {} breaks",
+                c.emph.len(),
+                fit.emph_breaks.len()
+            )));
+        }
+        for &x in &c.emph {
+            out.coefs
+                .push(to_half(x).map_err(|e| at(format!("emphasis value {e}")))?.to_f32());
         }
     }
     Ok(out)
 }
 
-fn encode_transmittance(fit: &Transmittance<f64>) -> Result<Transmittance, String> {
+fn encode_transmittance(fit: &TransmittanceFit) -> Result<Transmittance, String> {
     // Rounded to f32, an axis must still ascend.
     let axis = |what: &str, values: &[f64]| -> Result<Vec<f64>, String> {
         let rounded = values
@@ -612,16 +555,25 @@ fn encode_transmittance(fit: &Transmittance<f64>) -> Result<Transmittance, Strin
     })
 }
 
-fn encode_polarisation(fit: &Polarisation<f64>, axes: &Axes) -> Result<Polarisation, String> {
-    let value = |(i, &x): (usize, &f64)| {
-        let (config, k) = (i / fit.config_len(), i / fit.component_len() % fit.rank);
-        to_f32(x).map_err(|e| format!("polarisation of {}, rank component {k}: {e}", axes.describe(config)))
-    };
+fn encode_polarisation(fit: &PolarisationFit, axes: &Axes) -> Result<Polarisation, String> {
+    check_breaks("sunBreaksPol", &fit.sun_breaks)?;
+    check_breaks("zenithBreaksPol", &fit.zenith_breaks)?;
+    let rank = check_configs("polarisation", &fit.configs, Vec::len, axes)?;
+    let mut coefs = Vec::with_capacity(axes.configurations() * rank * (fit.sun_breaks.len() + fit.zenith_breaks.len()));
+    for (config, components) in fit.configs.iter().enumerate() {
+        for (k, comp) in components.iter().enumerate() {
+            let at = |e: String| format!("polarisation of {}, rank component {k}: {e}", axes.describe(config));
+            check_component(comp, fit.sun_breaks.len(), fit.zenith_breaks.len()).map_err(at)?;
+            for &x in comp.sun.iter().chain(&comp.zenith) {
+                coefs.push(to_f32(x).map_err(at)?);
+            }
+        }
+    }
     Ok(Polarisation {
-        rank: fit.rank,
+        rank,
         sun_breaks: fit.sun_breaks.clone(),
         zenith_breaks: fit.zenith_breaks.clone(),
-        coefs: fit.coefs.iter().enumerate().map(value).collect::<Result<_, _>>()?,
+        coefs,
     })
 }
 
