@@ -139,7 +139,7 @@ impl Radiance {
 
 /// The transmittance tables: √T at node (distance d, altitude a) for
 /// observer altitude `alt`, visibility `vis` and a channel is
-/// Σ_r U[alt][d][a][r] · V[vis][alt][channel][r].
+/// `Σ_r U[alt][d][a][r] · V[vis][alt][channel][r]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Transmittance<T = f32> {
     pub d_dim: usize,
