@@ -18,13 +18,17 @@
 //!   g(t) = t + b·sin(2πt)/(2π) with b = [`ZENITH_GRADING`] = 0.68, spacing
 //!   ∝ 1 − b·cos(2π(t − ½)); with the seed's 205 breaks 0.28° at the horizon
 //!   (a break exactly at π/2 for odd n) to 1.48° at zenith and nadir;
-//! - emphasis (θ′): geometric grading away from the horizon on both sides,
-//!   g(t) = ½ ± ½·(ρ^|2t − 1| − 1)/(ρ − 1) with ρ = [`EMPH_GRADING`] = 16;
-//!   with the seed's 118 breaks 0.29° next to the horizon to 4.4° at zenith
-//!   and nadir. 118 breaks over 180° average 1.54°, so no emphasis set of
-//!   that size can keep every spacing under 1.5°: the sparse ends are
-//!   where the de-emphasis is smooth (exactly 1 in the sky, a slow ground
-//!   ratio below), and the dense middle holds the step at the horizon.
+//! - emphasis (θ′): a break exactly on the horizon (for n ≥ 3), and
+//!   geometric grading away from it on both sides: of the n − 1 intervals
+//!   m_a = ⌈(n − 1)/2⌉ lie above the horizon (θ′ < π/2) and m_b the rest
+//!   below, the break d intervals from the horizon on a side of m at
+//!   π/2 ∓ (π/2)·(ρ^(d/m) − 1)/(ρ − 1), ρ = [`EMPH_GRADING`] = 16; with the
+//!   seed's 118 breaks 0.29° next to the horizon to 4.5° at zenith and
+//!   nadir. 118 breaks over 180° average 1.54°, so no emphasis set of that
+//!   size can keep every spacing under 1.5°: the sparse ends are where the
+//!   de-emphasis is smooth (exactly 1 in the sky, a slow ground ratio
+//!   below), and the dense middle holds the step at the horizon, which
+//!   [`super::emphasis`] puts just below the break at π/2.
 //!
 //! Spacings scale with 1/(n − 1) for other counts.
 
@@ -56,13 +60,20 @@ pub fn zenith_breaks(n: usize) -> Vec<f64> {
     out
 }
 
-/// `n` breaks of θ′ for the de-emphasis, dense at the horizon (π/2).
-/// Fewer than 2 give [0, π].
+/// `n` breaks of θ′ for the de-emphasis, dense at the horizon (π/2) and
+/// with a break exactly there when n ≥ 3. Fewer than 2 give [0, π].
 pub fn emph_breaks(n: usize) -> Vec<f64> {
-    graded(n, |t| {
-        let u = 2.0 * t - 1.0;
-        0.5 + 0.5 * u.signum() * (EMPH_GRADING.powf(u.abs()) - 1.0) / (EMPH_GRADING - 1.0)
-    })
+    if n < 3 {
+        return vec![0.0, PI];
+    }
+    let above = (n - 1).div_ceil(2);
+    let below = n - 1 - above;
+    let offset = |d: usize, m: usize| PI / 2.0 * (EMPH_GRADING.powf(d as f64 / m as f64) - 1.0) / (EMPH_GRADING - 1.0);
+    let mut out: Vec<f64> = (0..=above).rev().map(|d| PI / 2.0 - offset(d, above)).collect();
+    out.extend((1..=below).map(|d| PI / 2.0 + offset(d, below)));
+    out[0] = 0.0;
+    out[n - 1] = PI;
+    out
 }
 
 /// π·g(k/(n − 1)) for k = 0 … n − 1, the ends exactly 0 and π.
@@ -157,18 +168,28 @@ mod tests {
         assert_eq!(z[102], FRAC_PI_2);
         assert!((z[103] - z[102]).to_degrees() < 0.29);
         let (lo, hi) = spacings_deg(&emph_breaks(118));
-        assert!(lo >= 0.25 && hi <= 4.5, "emph {lo}° … {hi}°");
+        assert!(lo >= 0.25 && hi <= 4.6, "emph {lo}° … {hi}°");
+        // The horizon is a break, with the finest spacing either side.
+        for n in [118, 119, 4, 3] {
+            let e = emph_breaks(n);
+            assert_eq!(e.len(), n);
+            let mid = e.partition_point(|&x| x < FRAC_PI_2);
+            assert_eq!(e[mid], FRAC_PI_2, "n {n}");
+            assert!(e.windows(2).all(|w| w[1] > w[0]));
+        }
         let e = emph_breaks(118);
         let mid = e.partition_point(|&x| x < FRAC_PI_2);
-        assert!((e[mid] - e[mid - 1]).to_degrees() < 0.3);
-        // Symmetric about the horizon.
-        for k in 0..118 {
-            assert!((e[k] + e[117 - k] - PI).abs() < 1e-12);
+        assert!((e[mid] - e[mid - 1]).to_degrees() < 0.3 && (e[mid + 1] - e[mid]).to_degrees() < 0.3);
+        // Symmetric about the horizon for odd n.
+        let e = emph_breaks(119);
+        for k in 0..119 {
+            assert!((e[k] + e[118 - k] - PI).abs() < 1e-12);
         }
         // Degenerate counts still span [0, π].
         assert_eq!(sun_breaks(0), vec![0.0, PI]);
         assert_eq!(zenith_breaks(2), vec![0.0, PI]);
         assert_eq!(emph_breaks(3), vec![0.0, FRAC_PI_2, PI]);
+        assert_eq!(emph_breaks(1), vec![0.0, PI]);
     }
 
     #[test]
