@@ -49,6 +49,12 @@ enum Command {
     /// per wavelength and direction (radiance.csv) and the fluxes at the
     /// observer level (fluxes.csv).
     Render(cli::render::RenderArgs),
+    /// Fit rendered skies and transmittance tables into a dataset file the
+    /// Prague sky model's runtime reads (settings in FIT.toml).
+    Fit(cli::fit::FitArgs),
+    /// Evaluate a sky-model dataset with the runtime's semantics: a
+    /// summary, answers to a CSV of queries, or sphere/fisheye images.
+    Eval(cli::eval::EvalArgs),
 }
 
 fn main() -> ExitCode {
@@ -76,6 +82,8 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => cli::render::run(args),
+        Command::Fit(args) => cli::fit::run(args),
+        Command::Eval(args) => cli::eval::run(args),
         Command::Merge(args) => cli::merge::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::Plan(args) => cli::plan::run(args),

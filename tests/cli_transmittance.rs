@@ -76,8 +76,14 @@ fn bad_grids_are_refused() {
         ("altitudes_km = [0.0, 150.0]\n", "transmittance.altitudes_km"),
         ("altitudes_km = [1.0]\n", "transmittance.altitudes_km"),
         ("estimator = \"guess\"\n", "guess"),
-        ("layout = \"sky_model\"\nmax_distance_km = 100.0\n", "transmittance.max_distance_km"),
-        ("layout = \"sky_model\"\naltitudes_km = [0.0, 1.0]\n", "transmittance.altitudes_km"),
+        (
+            "layout = \"sky_model\"\nmax_distance_km = 100.0\n",
+            "transmittance.max_distance_km",
+        ),
+        (
+            "layout = \"sky_model\"\naltitudes_km = [0.0, 1.0]\n",
+            "transmittance.altitudes_km",
+        ),
         ("layout = \"grid\"\n", "grid"),
     ] {
         common::assert_refused("transmittance", &format!("[transmittance]\n{section}"), &[key]);

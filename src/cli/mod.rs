@@ -5,6 +5,8 @@
 pub mod atmosphere;
 pub mod bench;
 pub mod common;
+pub mod eval;
+pub mod fit;
 pub mod merge;
 pub mod plan;
 pub mod progress;

@@ -49,9 +49,7 @@ impl Grid {
         let node = |i: usize, n: usize, p: i32| (i as f64 / n as f64).powi(p);
         Grid {
             altitudes_km: (0..n_a).map(|i| SKY_MODEL_TOP_KM * node(i, n_a, 3)).collect(),
-            distances_km: (0..n_d)
-                .map(|j| SKY_MODEL_MAX_DISTANCE_KM * node(j, n_d, 4))
-                .collect(),
+            distances_km: (0..n_d).map(|j| SKY_MODEL_MAX_DISTANCE_KM * node(j, n_d, 4)).collect(),
             definition: format!(
                 "sky_model: a_i = {SKY_MODEL_TOP_KM}*(i/{n_a})^3 km, i = 0..{}; d_j = {SKY_MODEL_MAX_DISTANCE_KM}*(j/{n_d})^4 km, j = 0..{} (the sky-model runtime's nodes)",
                 n_a - 1,

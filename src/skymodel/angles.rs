@@ -124,7 +124,14 @@ mod tests {
             // The tangent from radius R + h dips by acos(R/(R+h)).
             let dip = (PLANET_RADIUS_M / (PLANET_RADIUS_M + h)).acos();
             let v = DVec3::new(dip.cos(), 0.0, -dip.sin());
-            let a = ViewAngles::of(v, SunPosition { elevation: 0.3, azimuth: 0.0 }, h);
+            let a = ViewAngles::of(
+                v,
+                SunPosition {
+                    elevation: 0.3,
+                    azimuth: 0.0,
+                },
+                h,
+            );
             assert!((a.zero - FRAC_PI_2).abs() < 1e-9, "h {h}: θ′ {}", a.zero);
             assert!((a.theta - (FRAC_PI_2 + dip)).abs() < 1e-12);
         }
@@ -144,9 +151,15 @@ mod tests {
 
     #[test]
     fn shadow_point_is_the_zenith_for_a_sun_on_the_horizon() {
-        let sun = SunPosition { elevation: 0.0, azimuth: 1.0 };
+        let sun = SunPosition {
+            elevation: 0.0,
+            azimuth: 1.0,
+        };
         assert!((sun.shadow_direction() - DVec3::Z).length() < 1e-15);
-        let sun = SunPosition { elevation: -0.05, azimuth: 0.0 };
+        let sun = SunPosition {
+            elevation: -0.05,
+            azimuth: 0.0,
+        };
         // u is perpendicular to s and 90° above it.
         assert!(sun.direction().dot(sun.shadow_direction()).abs() < 1e-15);
         assert!(sun.shadow_direction().z > 0.99);

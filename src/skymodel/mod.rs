@@ -11,5 +11,8 @@
 
 pub mod angles;
 pub mod dataset;
+pub mod eval_image;
 pub mod fit;
+pub mod queries;
+pub mod report;
 pub mod runtime;

@@ -7,9 +7,14 @@
 pub mod breaks;
 pub mod decompose;
 pub mod emphasis;
+pub mod grid;
+pub mod image_fit;
 pub mod laplace;
+pub mod renders;
 pub mod reproject;
+pub mod settings;
 pub mod smooth;
+pub mod transmittance;
 
 use std::f64::consts::PI;
 

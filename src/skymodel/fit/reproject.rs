@@ -77,10 +77,20 @@ struct Cone {
     gamma_far: f64,
 }
 
+/// Which angle the table's α is (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlphaAxis {
+    /// The runtime's radiance axis: the shadow angle σ for a sun below the
+    /// horizon, θ′ otherwise.
+    ZenithOrShadow,
+    /// θ′ at every sun elevation: the runtime's polarisation axis.
+    Zenith,
+}
+
 impl Cone {
-    fn new(alpha: f64, sun_elevation: f64, altitude_m: f64) -> Cone {
+    fn new(alpha: f64, sun_elevation: f64, altitude_m: f64, axis: AlphaAxis) -> Cone {
         let sun = sun_at(sun_elevation);
-        let (axis, toward_sun) = if sun_elevation < 0.0 {
+        let (axis, toward_sun) = if sun_elevation < 0.0 && axis == AlphaAxis::ZenithOrShadow {
             (sun.shadow_direction(), sun.direction())
         } else {
             (DVec3::Z, DVec3::X)
@@ -176,7 +186,7 @@ fn angle(a: DVec3, b: DVec3) -> f64 {
 /// `altitude_m`, or None where no view has them. [`gamma_alpha`] of it
 /// gives them back.
 pub fn direction_at(gamma: f64, alpha: f64, sun_elevation: f64, altitude_m: f64) -> Option<DVec3> {
-    Cone::new(alpha, sun_elevation, altitude_m).solve(gamma)
+    Cone::new(alpha, sun_elevation, altitude_m, AlphaAxis::ZenithOrShadow).solve(gamma)
 }
 
 /// The table F(γ, α) of `image` on `n` × `n` nodes over [0, π]² (row α,
@@ -184,13 +194,25 @@ pub fn direction_at(gamma: f64, alpha: f64, sun_elevation: f64, altitude_m: f64)
 /// and its mirror image in the sun's vertical plane. Nodes no view has are
 /// marked invalid and hold 0.
 pub fn to_angle_table(image: &SphereImage, sun_elevation: f64, altitude_m: f64, n: usize) -> AngleTable {
+    to_angle_table_on(image, sun_elevation, altitude_m, n, AlphaAxis::ZenithOrShadow)
+}
+
+/// [`to_angle_table`] with α the chosen angle (θ′ throughout for the
+/// polarisation, which the runtime reads on θ′ at every sun elevation).
+pub fn to_angle_table_on(
+    image: &SphereImage,
+    sun_elevation: f64,
+    altitude_m: f64,
+    n: usize,
+    axis: AlphaAxis,
+) -> AngleTable {
     let mut table = AngleTable {
         n,
         values: vec![0.0; n * n],
         valid: vec![false; n * n],
     };
     for row in 0..n {
-        let cone = Cone::new(table.angle(row), sun_elevation, altitude_m);
+        let cone = Cone::new(table.angle(row), sun_elevation, altitude_m, axis);
         for col in 0..n {
             if let Some(v) = cone.solve(table.angle(col)) {
                 let mirror = DVec3::new(v.x, -v.y, v.z);

@@ -1,0 +1,106 @@
+//! The fit of one image (a configuration's albedo and channel), the
+//! supplement's section 1.6 step by step:
+//!
+//! 1. pre-emphasis: the sharp horizon out, the de-emphasis E(θ′) kept;
+//! 2. reprojection of the pre-emphasised image to the (γ, α) plane;
+//! 3. harmonic infill of the part no direction reaches, so that
+//!    interpolating between fitted configurations never reads undefined
+//!    cells;
+//! 4. a Gaussian blur of σ nodes (the supplement's noise filter; its
+//!    wavelet denoising of the renders is not done: the renders' noise is
+//!    left to the blur and the rank truncation);
+//! 5. a truncated SVD, the optimal rank-k approximation in the least-squares
+//!    sense (Eckart–Young), in place of the supplement's CPD, which for a
+//!    2-way table is the same decomposition without its guarantee;
+//! 6. the rank functions and E sampled at the non-uniform breaks.
+//!
+//! The polarisation, Q/I in the sun–view frame, goes through steps 2–6
+//! without emphasis, with α the corrected zenith angle θ′ at every sun
+//! elevation (as the runtime reads it), and is stored negated (the runtime
+//! returns minus its reconstruction).
+
+use super::breaks::{emph_breaks, resample, sun_breaks, zenith_breaks};
+use super::decompose::truncated_svd;
+use super::emphasis::pre_emphasis_at;
+use super::laplace;
+use super::renders::Layer;
+use super::reproject::{AlphaAxis, fill_invalid, to_angle_table, to_angle_table_on};
+use super::settings::FitSettings;
+use super::smooth::gaussian;
+use crate::skymodel::dataset::{ComponentFit, RadianceConfigFit};
+
+/// One image's fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LayerFit {
+    pub radiance: RadianceConfigFit,
+    pub explained: Vec<f64>,
+    pub kappa: f64,
+    /// Polarisation components (already negated), if fitted.
+    pub polarisation: Option<Vec<ComponentFit>>,
+    pub polarisation_explained: Vec<f64>,
+}
+
+/// Fits `layer` for a sun at `elevation_deg` and an observer at
+/// `altitude_m`; the polarisation too when `polarised`.
+pub fn fit_layer(
+    layer: &Layer,
+    elevation_deg: f64,
+    altitude_m: f64,
+    settings: &FitSettings,
+    polarised: bool,
+) -> LayerFit {
+    let elevation = elevation_deg.to_radians();
+    let n = settings.resolution;
+    let emphasis = pre_emphasis_at(&layer.radiance, altitude_m, &emph_breaks(settings.emph_breaks));
+    let mut table = to_angle_table(&emphasis.image, elevation, altitude_m, n);
+    fill_invalid(&mut table);
+    if settings.blur_sigma > 0.0 {
+        gaussian(&mut table, settings.blur_sigma);
+    }
+    let low = truncated_svd(&table.values, n, n, settings.rank);
+    let (sb, zb) = (sun_breaks(settings.sun_breaks), zenith_breaks(settings.zenith_breaks));
+    let components = (0..settings.rank)
+        .map(|k| ComponentFit {
+            sun: resample(&low.sun[k], &sb),
+            zenith: resample(&low.zenith[k], &zb),
+        })
+        .collect();
+    let radiance = RadianceConfigFit {
+        components,
+        emph: emphasis.values.clone(),
+    };
+    let mut fit = LayerFit {
+        radiance,
+        explained: low.explained_variance(),
+        kappa: emphasis.kappa,
+        polarisation: None,
+        polarisation_explained: Vec::new(),
+    };
+    if let (true, Some(p)) = (polarised, layer.polarisation.as_ref()) {
+        // Where I is 0 (a black ground seen from the ground) Q/I is
+        // undefined: those pixels are filled from their neighbours.
+        let mut image = p.clone();
+        let peak = layer.radiance.values.iter().fold(0.0f64, |m, &v| m.max(v));
+        let known: Vec<bool> = layer.radiance.values.iter().map(|&v| v > 1e-9 * peak).collect();
+        laplace::fill(&mut image.values, &known, image.width, image.height, true);
+        for v in image.values.iter_mut() {
+            *v = -*v;
+        }
+        let mut table = to_angle_table_on(&image, elevation, altitude_m, n, AlphaAxis::Zenith);
+        fill_invalid(&mut table);
+        if settings.blur_sigma > 0.0 {
+            gaussian(&mut table, settings.blur_sigma);
+        }
+        let low = truncated_svd(&table.values, n, n, settings.polarisation_rank);
+        fit.polarisation = Some(
+            (0..settings.polarisation_rank)
+                .map(|k| ComponentFit {
+                    sun: resample(&low.sun[k], &sb),
+                    zenith: resample(&low.zenith[k], &zb),
+                })
+                .collect(),
+        );
+        fit.polarisation_explained = low.explained_variance();
+    }
+    fit
+}

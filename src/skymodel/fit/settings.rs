@@ -1,0 +1,221 @@
+//! The fit's settings file (`atmosim fit FIT.toml`): where the renders
+//! are, where the dataset goes, and how the fit is made. Only `renders`
+//! and `out` are required; every other key has the default the Prague sky
+//! model's supplement used where it states one.
+//!
+//! Paths are taken from the current directory, as a job's
+//! `output.directory` is.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+
+/// Resolved fit settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitSettings {
+    /// The render jobs' output directories (each holds one directory per task).
+    pub renders: Vec<PathBuf>,
+    /// A transmittance job's output directory (tables on the `sky_model`
+    /// layout), if given.
+    pub transmittance: Option<PathBuf>,
+    /// The dataset file to write.
+    pub out: PathBuf,
+    /// Rank of the radiance decomposition (seed: 9).
+    pub rank: usize,
+    /// Rank of the polarisation decomposition (seed: 5); 0 writes no
+    /// polarisation part.
+    pub polarisation_rank: usize,
+    /// Rank of the transmittance decomposition per observer altitude (seed: 12).
+    pub transmittance_rank: usize,
+    /// Nodes per axis of the (γ, α) table (seed: 361, 0.5°).
+    pub resolution: usize,
+    /// Break counts of the stored functions (seed: 275, 205, 118).
+    pub sun_breaks: usize,
+    pub zenith_breaks: usize,
+    pub emph_breaks: usize,
+    /// σ of the Gaussian blur of the (γ, α) table, in nodes (seed: 1; 0 = none).
+    pub blur_sigma: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFit {
+    renders: Option<OneOrMany>,
+    transmittance: Option<String>,
+    out: Option<String>,
+    rank: Option<i64>,
+    polarisation_rank: Option<i64>,
+    transmittance_rank: Option<i64>,
+    resolution: Option<i64>,
+    sun_breaks: Option<i64>,
+    zenith_breaks: Option<i64>,
+    emph_breaks: Option<i64>,
+    blur_sigma: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum OneOrMany {
+    One(String),
+    Many(Vec<String>),
+}
+
+impl FitSettings {
+    /// Reads and checks the settings file at `path`.
+    pub fn from_file(path: &Path) -> Result<FitSettings> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// Checks settings text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<FitSettings> {
+        let raw: RawFit = toml::from_str(text).map_err(|e| Error::JobSyntax {
+            file: file.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        let invalid = |key: &str, value: String, reason: &str, valid: &str| Error::InvalidValue {
+            file: file.to_string(),
+            key: key.to_string(),
+            value,
+            reason: reason.to_string(),
+            valid: valid.to_string(),
+        };
+        let renders: Vec<PathBuf> = match raw.renders {
+            None => {
+                return Err(invalid(
+                    "renders",
+                    "missing".into(),
+                    "required",
+                    "a render job's output directory, or a list of them",
+                ));
+            }
+            Some(OneOrMany::One(s)) => vec![PathBuf::from(s)],
+            Some(OneOrMany::Many(v)) => v.into_iter().map(PathBuf::from).collect(),
+        };
+        if renders.is_empty() || renders.iter().any(|p| p.as_os_str().is_empty()) {
+            return Err(invalid(
+                "renders",
+                format!("{renders:?}"),
+                "no directory",
+                "a render job's output directory, or a list of them",
+            ));
+        }
+        let out = match raw.out {
+            Some(s) if !s.is_empty() => PathBuf::from(s),
+            Some(_) => {
+                return Err(invalid(
+                    "out",
+                    "\"\"".into(),
+                    "empty",
+                    "the dataset file to write, e.g. \"sky.dat\"",
+                ));
+            }
+            None => {
+                return Err(invalid(
+                    "out",
+                    "missing".into(),
+                    "required",
+                    "the dataset file to write, e.g. \"sky.dat\"",
+                ));
+            }
+        };
+        let count = |key: &str, v: Option<i64>, default: usize, lo: i64, hi: i64| -> Result<usize> {
+            match v {
+                None => Ok(default),
+                Some(n) if (lo..=hi).contains(&n) => Ok(n as usize),
+                Some(n) => Err(invalid(key, n.to_string(), "out of range", &format!("{lo} to {hi}"))),
+            }
+        };
+        let resolution = count("resolution", raw.resolution, 361, 9, 4001)?;
+        let rank = count("rank", raw.rank, 9, 1, resolution as i64)?;
+        let polarisation_rank = count("polarisation_rank", raw.polarisation_rank, 5, 0, resolution as i64)?;
+        let transmittance_rank = count("transmittance_rank", raw.transmittance_rank, 12, 1, 1000)?;
+        let sun_breaks = count("sun_breaks", raw.sun_breaks, 275, 2, 100_000)?;
+        let zenith_breaks = count("zenith_breaks", raw.zenith_breaks, 205, 3, 100_000)?;
+        let emph_breaks = count("emph_breaks", raw.emph_breaks, 118, 3, 100_000)?;
+        let real = |key: &str, v: Option<f64>, default: f64, hi: f64| -> Result<f64> {
+            let v = v.unwrap_or(default);
+            if v.is_finite() && (0.0..=hi).contains(&v) {
+                Ok(v)
+            } else {
+                Err(invalid(key, v.to_string(), "out of range", &format!("0 to {hi}")))
+            }
+        };
+        Ok(FitSettings {
+            renders,
+            transmittance: raw.transmittance.map(PathBuf::from),
+            out,
+            rank,
+            polarisation_rank,
+            transmittance_rank,
+            resolution,
+            sun_breaks,
+            zenith_breaks,
+            emph_breaks,
+            blur_sigma: real("blur_sigma", raw.blur_sigma, 1.0, 20.0)?,
+        })
+    }
+
+    /// The settings as TOML, for the dataset's provenance sidecar.
+    pub fn to_toml(&self) -> String {
+        let q = |p: &Path| format!("{:?}", p.display().to_string());
+        let renders: Vec<String> = self.renders.iter().map(|p| q(p)).collect();
+        let mut s = format!("renders = [{}]\n", renders.join(", "));
+        if let Some(t) = &self.transmittance {
+            s.push_str(&format!("transmittance = {}\n", q(t)));
+        }
+        s.push_str(&format!(
+            "out = {}\nrank = {}\npolarisation_rank = {}\ntransmittance_rank = {}\nresolution = {}\n\
+             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\n",
+            q(&self.out),
+            self.rank,
+            self.polarisation_rank,
+            self.transmittance_rank,
+            self.resolution,
+            self.sun_breaks,
+            self.zenith_breaks,
+            self.emph_breaks,
+            self.blur_sigma
+        ));
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_required_keys_are_enough_and_the_defaults_are_the_seeds() {
+        let s = FitSettings::parse("renders = \"r\"\nout = \"sky.dat\"\n", "fit.toml").unwrap();
+        assert_eq!(s.renders, vec![PathBuf::from("r")]);
+        assert_eq!((s.rank, s.polarisation_rank, s.transmittance_rank), (9, 5, 12));
+        assert_eq!(
+            (s.sun_breaks, s.zenith_breaks, s.emph_breaks, s.resolution),
+            (275, 205, 118, 361)
+        );
+        assert_eq!(s.blur_sigma, 1.0);
+        assert_eq!(s.transmittance, None);
+        // The provenance text reads back as the same settings.
+        assert_eq!(FitSettings::parse(&s.to_toml(), "again").unwrap(), s);
+    }
+
+    #[test]
+    fn bad_settings_name_their_key() {
+        for (text, key) in [
+            ("out = \"x\"\n", "renders"),
+            ("renders = \"r\"\n", "out"),
+            ("renders = \"r\"\nout = \"x\"\nrank = 0\n", "rank"),
+            ("renders = \"r\"\nout = \"x\"\nresolution = 3\n", "resolution"),
+            ("renders = \"r\"\nout = \"x\"\nblur_sigma = -1.0\n", "blur_sigma"),
+            ("renders = []\nout = \"x\"\n", "renders"),
+            ("renders = \"r\"\nout = \"x\"\nrnak = 3\n", "rnak"),
+        ] {
+            let e = FitSettings::parse(text, "fit.toml").unwrap_err();
+            assert!(e.is_user_error());
+            assert!(e.to_string().contains(key), "{text}: {e}");
+        }
+    }
+}

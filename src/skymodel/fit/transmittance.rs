@@ -1,0 +1,252 @@
+//! The transmittance part of a dataset (the supplement's section 2): √T at
+//! the runtime's nodes, for each observer altitude a matrix of nodes ×
+//! (visibility, channel), decomposed by a truncated SVD.
+//!
+//! The tables are those of `atmosim transmittance` with
+//! `layout = "sky_model"`: one task per (visibility, observer altitude),
+//! `<λ>nm.T` per channel and `blocked` for nodes whose line of sight passes
+//! below the ground. A blocked node has no transmittance; it is filled by
+//! harmonic continuation of its visible neighbours' √T over the
+//! (distance, altitude) node grid, so that the runtime, which interpolates
+//! between nodes and observer altitudes, reads a smooth surface there and
+//! not a cliff to 0.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::decompose::truncated_svd;
+use super::laplace;
+use crate::error::{Error, Result};
+use crate::io::exr::{read_exr, wavelength_label};
+use crate::job::transmittance::Grid;
+use crate::skymodel::dataset::TransmittanceFit;
+
+/// The file `atmosim transmittance` writes per task.
+pub const TABLE_FILE: &str = "transmittance.exr";
+
+/// A fitted transmittance part and how well it holds the tables.
+#[derive(Debug, Clone)]
+pub struct TransmittanceResult {
+    pub part: TransmittanceFit,
+    /// The largest |T_fit − T_table| over visible nodes (after f32).
+    pub max_abs_error: f64,
+    /// Explained variance of √T by rank, per observer altitude.
+    pub explained: Vec<Vec<f64>>,
+    /// Blocked nodes filled, of all nodes.
+    pub filled: (usize, usize),
+}
+
+/// One table: (visibility, observer altitude) → per channel √T over the
+/// nodes (index d·n_a + a), and the blocked flags.
+struct Table {
+    sqrt_t: Vec<Vec<f64>>,
+    t: Vec<Vec<f64>>,
+    blocked: Vec<bool>,
+}
+
+/// Reads every table under `dir` and fits rank `rank` per observer
+/// altitude; `wavelengths_nm` are the radiance part's channel centres,
+/// which the tables must have.
+pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<TransmittanceResult> {
+    let mut paths: Vec<PathBuf> = if dir.join(TABLE_FILE).is_file() {
+        vec![dir.join(TABLE_FILE)]
+    } else {
+        std::fs::read_dir(dir)
+            .map_err(|e| Error::io(dir, e))?
+            .filter_map(|e| e.ok().map(|e| e.path().join(TABLE_FILE)))
+            .filter(|p| p.is_file())
+            .collect()
+    };
+    paths.sort();
+    if paths.is_empty() {
+        return Err(Error::data(
+            dir.display().to_string(),
+            format!("no {TABLE_FILE} (run `atmosim transmittance` with layout = \"sky_model\")"),
+        ));
+    }
+    let mut tables: BTreeMap<(u64, u64), Table> = BTreeMap::new();
+    let mut layout: Option<(usize, usize)> = None;
+    for path in &paths {
+        let name = path.display().to_string();
+        let exr = read_exr(path)?;
+        let attr = |k: &str| -> Result<String> {
+            exr.attributes
+                .iter()
+                .find(|(a, _)| a == k)
+                .map(|(_, v)| v.clone())
+                .ok_or_else(|| Error::data(&name, format!("no `{k}` attribute: not an atmosim transmittance table")))
+        };
+        let numbers = |k: &str| -> Result<Vec<f64>> {
+            attr(k)?
+                .split_whitespace()
+                .map(|v| v.parse().map_err(|_| Error::data(&name, format!("`{k}` holds {v:?}"))))
+                .collect()
+        };
+        let (n_a, n_d) = (exr.height, exr.width);
+        let runtime = Grid::sky_model_runtime(n_a, n_d);
+        let close = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-9 * y.max(1.0))
+        };
+        if !close(&numbers("altitudes_km")?, &runtime.altitudes_km)
+            || !close(&numbers("distances_km")?, &runtime.distances_km)
+        {
+            return Err(Error::data(
+                &name,
+                "not on the sky-model runtime's nodes: render the tables with `layout = \"sky_model\"` in [transmittance]",
+            ));
+        }
+        match layout {
+            None => layout = Some((n_a, n_d)),
+            Some(l) if l != (n_a, n_d) => {
+                return Err(Error::data(
+                    &name,
+                    format!("{n_a} × {n_d} nodes, another table has {} × {}", l.0, l.1),
+                ));
+            }
+            Some(_) => {}
+        }
+        let table_wavelengths = numbers("wavelengths_nm")?;
+        if !close(&table_wavelengths, wavelengths_nm) {
+            return Err(Error::data(
+                &name,
+                format!("wavelengths {table_wavelengths:?}, the renders' channels are {wavelengths_nm:?}"),
+            ));
+        }
+        let radius = attr("planet_radius_km")?;
+        if radius.trim() != "6378" {
+            return Err(Error::data(
+                &name,
+                format!("planet radius {radius} km; the runtime assumes 6378 km"),
+            ));
+        }
+        let visibility: f64 = attr("visibility_km")?.trim().parse().map_err(|_| {
+            Error::data(
+                &name,
+                "a transmittance table without a visibility (an OPAC aerosol is needed)",
+            )
+        })?;
+        let altitude_km: f64 = attr("observer_altitude_km")?
+            .trim()
+            .parse()
+            .map_err(|_| Error::data(&name, "`observer_altitude_km` is not a number"))?;
+        let channel = |n: &str| -> Result<&Vec<f32>> {
+            exr.channels
+                .iter()
+                .find(|c| c.name == n)
+                .map(|c| &c.samples)
+                .ok_or_else(|| Error::data(&name, format!("no channel `{n}`")))
+        };
+        // The EXR's pixel (row i = altitude, column j = distance) goes to
+        // node d·n_a + a, the runtime's order.
+        let reorder = |v: &[f32]| -> Vec<f64> {
+            let mut out = vec![0.0; n_a * n_d];
+            for i in 0..n_a {
+                for j in 0..n_d {
+                    out[j * n_a + i] = v[i * n_d + j] as f64;
+                }
+            }
+            out
+        };
+        let blocked: Vec<bool> = reorder(channel("blocked")?).iter().map(|&b| b > 0.5).collect();
+        let mut t = Vec::new();
+        for &lambda in wavelengths_nm {
+            t.push(reorder(channel(&format!("{}.T", wavelength_label(lambda)))?));
+        }
+        let sqrt_t = t
+            .iter()
+            .map(|c| c.iter().map(|&x| x.max(0.0).sqrt()).collect())
+            .collect();
+        let key = (visibility.to_bits(), (altitude_km * 1000.0).to_bits());
+        if tables.insert(key, Table { sqrt_t, t, blocked }).is_some() {
+            return Err(Error::data(
+                &name,
+                format!("a second table of visibility {visibility} km, observer {altitude_km} km"),
+            ));
+        }
+    }
+    let (n_a, n_d) = layout.expect("at least one table");
+    let mut visibilities: Vec<f64> = tables.keys().map(|k| f64::from_bits(k.0)).collect();
+    let mut altitudes_m: Vec<f64> = tables.keys().map(|k| f64::from_bits(k.1)).collect();
+    for v in [&mut visibilities, &mut altitudes_m] {
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+    }
+    let channels = wavelengths_nm.len();
+    let nodes = n_a * n_d;
+    let configs = visibilities.len() * channels;
+    let mut u = vec![0f64; altitudes_m.len() * nodes * rank];
+    let mut v = vec![0f64; visibilities.len() * altitudes_m.len() * channels * rank];
+    let mut explained = Vec::new();
+    let mut filled = (0, 0);
+    let mut max_abs_error: f64 = 0.0;
+    for (ai, &alt) in altitudes_m.iter().enumerate() {
+        // Columns: (visibility, channel); rows: nodes.
+        let mut m = vec![0.0; nodes * configs];
+        for (vi, &vis) in visibilities.iter().enumerate() {
+            let table = tables.get(&(vis.to_bits(), alt.to_bits())).ok_or_else(|| {
+                Error::data(
+                    dir.display().to_string(),
+                    format!(
+                        "no table of visibility {vis} km for observer {} km: the tables must cover every pair",
+                        alt / 1000.0
+                    ),
+                )
+            })?;
+            let known: Vec<bool> = table.blocked.iter().map(|b| !b).collect();
+            filled.0 += table.blocked.iter().filter(|&&b| b).count() * channels;
+            filled.1 += nodes * channels;
+            for (c, values) in table.sqrt_t.iter().enumerate() {
+                let mut column = values.clone();
+                laplace::fill(&mut column, &known, n_a, n_d, false);
+                for (node, x) in column.iter().enumerate() {
+                    m[node * configs + vi * channels + c] = *x;
+                }
+            }
+        }
+        let low = truncated_svd(&m, nodes, configs, rank);
+        explained.push(low.explained_variance());
+        for node in 0..nodes {
+            for r in 0..rank {
+                u[(ai * nodes + node) * rank + r] = low.zenith[r][node];
+            }
+        }
+        for vi in 0..visibilities.len() {
+            for c in 0..channels {
+                for r in 0..rank {
+                    v[((vi * altitudes_m.len() + ai) * channels + c) * rank + r] = low.sun[r][vi * channels + c];
+                }
+            }
+        }
+        // The error at the nodes, as the runtime reconstructs them from
+        // the file's f32 values.
+        for (vi, &vis) in visibilities.iter().enumerate() {
+            let table = &tables[&(vis.to_bits(), alt.to_bits())];
+            for c in 0..channels {
+                for node in (0..nodes).filter(|&k| !table.blocked[k]) {
+                    let s: f64 = (0..rank)
+                        .map(|r| {
+                            (u[(ai * nodes + node) * rank + r] as f32) as f64
+                                * (v[((vi * altitudes_m.len() + ai) * channels + c) * rank + r] as f32) as f64
+                        })
+                        .sum();
+                    let fitted = s.max(0.0).powi(2);
+                    max_abs_error = max_abs_error.max((fitted - table.t[c][node]).abs());
+                }
+            }
+        }
+    }
+    Ok(TransmittanceResult {
+        part: TransmittanceFit {
+            d_dim: n_d,
+            a_dim: n_a,
+            altitudes_m,
+            visibilities_km: visibilities,
+            rank,
+            u,
+            v,
+        },
+        max_abs_error,
+        explained,
+        filled,
+    })
+}

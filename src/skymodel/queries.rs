@@ -1,0 +1,162 @@
+//! `atmosim eval DATASET --queries Q.csv`: rows of the runtime's API
+//! arguments in, the same rows out with what the runtime returns appended.
+//!
+//! Input columns (a header row naming them, in any order; other columns are
+//! carried through): `view_x_m, view_y_m, view_z_m` (the view point in the
+//! runtime's frame, z up, the ground at z = 0), `dir_x, dir_y, dir_z` (the
+//! view direction, any length > 0), `sun_elevation_deg, sun_azimuth_deg`
+//! (at the origin), `visibility_km`, `albedo`, `wavelength_nm` and
+//! `distance_m` (for the transmittance along the direction; `inf` for the
+//! whole way). Output: the input row with `sky_radiance, sun_radiance,
+//! polarisation, transmittance` appended (polarisation empty for a dataset
+//! without it).
+
+use glam::DVec3;
+
+use super::runtime::Model;
+use crate::error::{Error, Result};
+
+/// The input columns, in the order the runtime's API takes them.
+pub const COLUMNS: [&str; 12] = [
+    "view_x_m",
+    "view_y_m",
+    "view_z_m",
+    "dir_x",
+    "dir_y",
+    "dir_z",
+    "sun_elevation_deg",
+    "sun_azimuth_deg",
+    "visibility_km",
+    "albedo",
+    "wavelength_nm",
+    "distance_m",
+];
+
+/// The appended columns.
+pub const RESULTS: [&str; 4] = ["sky_radiance", "sun_radiance", "polarisation", "transmittance"];
+
+/// Answers every row of the CSV `text` (`name` names it in errors); the
+/// whole input is checked before the first answer.
+pub fn answer(model: &Model, text: &str, name: &str) -> Result<String> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.starts_with('#'));
+    let (_, header) = lines.next().ok_or_else(|| {
+        Error::data(
+            name,
+            format!("empty: a header row with {} is needed", COLUMNS.join(",")),
+        )
+    })?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let mut index = [0usize; 12];
+    for (k, c) in COLUMNS.iter().enumerate() {
+        index[k] = names.iter().position(|n| n == c).ok_or_else(|| {
+            Error::data(
+                name,
+                format!("no column `{c}` in the header (needed: {})", COLUMNS.join(",")),
+            )
+        })?;
+    }
+    let mut rows = Vec::new();
+    for (line_no, line) in lines {
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != names.len() {
+            return Err(Error::data(
+                name,
+                format!(
+                    "line {}: {} values for {} columns",
+                    line_no + 1,
+                    cells.len(),
+                    names.len()
+                ),
+            ));
+        }
+        let mut v = [0.0; 12];
+        for (k, &i) in index.iter().enumerate() {
+            let parsed: f64 = cells[i].parse().map_err(|_| {
+                Error::data(
+                    name,
+                    format!(
+                        "line {}: `{}` = {:?} is not a number",
+                        line_no + 1,
+                        COLUMNS[k],
+                        cells[i]
+                    ),
+                )
+            })?;
+            let ok = match k {
+                11 => parsed > 0.0 && !parsed.is_nan(),
+                _ => parsed.is_finite(),
+            };
+            if !ok {
+                return Err(Error::data(
+                    name,
+                    format!(
+                        "line {}: `{}` = {}: {}",
+                        line_no + 1,
+                        COLUMNS[k],
+                        cells[i],
+                        if k == 11 {
+                            "must be > 0 (inf for the whole way)"
+                        } else {
+                            "must be finite"
+                        }
+                    ),
+                ));
+            }
+            v[k] = parsed;
+        }
+        let dir = DVec3::new(v[3], v[4], v[5]);
+        if dir.length() == 0.0 {
+            return Err(Error::data(
+                name,
+                format!("line {}: the direction is the zero vector", line_no + 1),
+            ));
+        }
+        if v[2] < 0.0 {
+            return Err(Error::data(
+                name,
+                format!("line {}: `view_z_m` = {} is below the ground", line_no + 1, v[2]),
+            ));
+        }
+        if !(0.0..=1.0).contains(&v[9]) {
+            return Err(Error::data(
+                name,
+                format!("line {}: `albedo` = {} is outside 0 to 1", line_no + 1, v[9]),
+            ));
+        }
+        if v[8] < 0.0 {
+            return Err(Error::data(
+                name,
+                format!("line {}: `visibility_km` = {} is negative", line_no + 1, v[8]),
+            ));
+        }
+        rows.push((line.to_string(), v));
+    }
+    let mut out = format!("{},{}\n", header.trim_end(), RESULTS.join(","));
+    for (line, v) in rows {
+        let params = model.parameters(
+            DVec3::new(v[0], v[1], v[2]),
+            DVec3::new(v[3], v[4], v[5]),
+            v[6].to_radians(),
+            v[7].to_radians(),
+            v[8],
+            v[9],
+        );
+        let lambda = v[10];
+        let distance = if v[11].is_infinite() { f64::MAX } else { v[11] };
+        let polarisation = model
+            .polarisation(&params, lambda)
+            .map_or(String::new(), |p| format!("{p:.9e}"));
+        out.push_str(&format!(
+            "{},{:.9e},{:.9e},{},{:.9e}\n",
+            line.trim_end(),
+            model.sky_radiance(&params, lambda),
+            model.sun_radiance(&params, lambda),
+            polarisation,
+            model.transmittance(&params, lambda, distance)
+        ));
+    }
+    Ok(out)
+}
