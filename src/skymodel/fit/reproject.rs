@@ -24,6 +24,9 @@
 //! value is the mean of the image at both, which halves the variance of
 //! the renders' noise.
 //!
+//! The polarisation tables take α = θ′ at every sun elevation
+//! ([`AlphaAxis::Zenith`]): the same cones about ẑ, by night too.
+//!
 //! In the image frame the sun's azimuth is 0 (x toward the sun).
 
 use glam::DVec3;
@@ -338,7 +341,7 @@ mod tests {
             let t = to_angle_table(&img, eta, h, n);
             for j in 0..n {
                 let alpha = t.angle(j);
-                let cone = Cone::new(alpha, eta, h);
+                let cone = Cone::new(alpha, eta, h, AlphaAxis::ZenithOrShadow);
                 let (lo, hi) = if eta >= 0.0 {
                     let theta = cone.view(1.0, 0.0).z.clamp(-1.0, 1.0).acos();
                     let zeta = FRAC_PI_2 - eta;
@@ -370,13 +373,51 @@ mod tests {
     }
 
     #[test]
+    fn the_zenith_axis_keeps_theta_prime_below_the_horizon_too() {
+        // α = θ′ for a sun at η = −10°: the parallelogram of the zenith
+        // angle with ζ = 100°, |j − 200| ≤ i ≤ min(j + 200, 520 − j) in
+        // half degrees, and the found views have θ′ = α.
+        let eta = -10f64.to_radians();
+        let img = SphereImage::zeros(8, 4);
+        let t = to_angle_table_on(&img, eta, 0.0, 361, AlphaAxis::Zenith);
+        for j in 0..361i64 {
+            for i in 0..361i64 {
+                let expected = (j - 200).abs() <= i && i <= (j + 200).min(520 - j);
+                assert_eq!(
+                    t.valid[(j * 361 + i) as usize],
+                    expected,
+                    "γ {}°, α {}°",
+                    i as f64 / 2.0,
+                    j as f64 / 2.0
+                );
+            }
+        }
+        for h in [0.0, 15_000.0] {
+            let cone = Cone::new(1.2, eta, h, AlphaAxis::Zenith);
+            let v = cone
+                .solve(0.5 * (cone.gamma_near + cone.gamma_far))
+                .unwrap_or(DVec3::ZERO);
+            let angles = ViewAngles::of(v, sun_at(eta), h);
+            assert!(
+                (angles.zero - 1.2).abs() < 1e-9
+                    && (angles.gamma - 0.5 * (cone.gamma_near + cone.gamma_far)).abs() < 1e-9
+            );
+        }
+    }
+
+    #[test]
     fn gamma_grows_along_every_cone() {
         // The solver's premise, on a fine grid of ψ, for suns below and
         // above the horizon and observers up to 15 km.
         for eta_deg in [-15.0, -6.0, -0.5, 0.0, 3.0, 40.0] {
             for h in [0.0, 1_000.0, 15_000.0] {
                 for alpha_deg in 0..=180 {
-                    let cone = Cone::new(f64::from(alpha_deg).to_radians(), f64::to_radians(eta_deg), h);
+                    let cone = Cone::new(
+                        f64::from(alpha_deg).to_radians(),
+                        f64::to_radians(eta_deg),
+                        h,
+                        AlphaAxis::ZenithOrShadow,
+                    );
                     let mut last = cone.gamma_near;
                     for k in 1..=2000 {
                         let psi = PI * k as f64 / 2000.0;
