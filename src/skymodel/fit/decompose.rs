@@ -20,7 +20,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::svd::{ComputeSvdVectors, svd, svd_scratch};
 use faer::{Par, Spec};
 
-/// A rank-`rank` approximation values[r·cols + c] ≈ Σ_k zenith[k][r]·sun[k][c].
+/// A rank-`rank` approximation: `values[r·cols + c] ≈ Σ_k zenith[k][r]·sun[k][c]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LowRank {
     pub rows: usize,
