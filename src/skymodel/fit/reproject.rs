@@ -29,6 +29,8 @@
 //!
 //! In the image frame the sun's azimuth is 0 (x toward the sun).
 
+use std::f64::consts::PI;
+
 use glam::DVec3;
 
 use super::laplace::{self, FillStats};
@@ -215,9 +217,12 @@ pub fn to_angle_table_on(
         valid: vec![false; n * n],
     };
     for row in 0..n {
-        let cone = Cone::new(table.angle(row), sun_elevation, altitude_m, axis);
+        // A single node is the pole of both angles (AngleTable::angle would
+        // divide by n − 1 = 0).
+        let node = |k: usize| if n > 1 { PI * k as f64 / (n - 1) as f64 } else { 0.0 };
+        let cone = Cone::new(node(row), sun_elevation, altitude_m, axis);
         for col in 0..n {
-            if let Some(v) = cone.solve(table.angle(col)) {
+            if let Some(v) = cone.solve(node(col)) {
                 let mirror = DVec3::new(v.x, -v.y, v.z);
                 table.values[row * n + col] = 0.5 * (image.sample(v) + image.sample(mirror));
                 table.valid[row * n + col] = true;
@@ -482,24 +487,36 @@ mod tests {
     }
 
     #[test]
+    fn degenerate_sizes() {
+        let img = SphereImage::zeros(8, 4);
+        let t = to_angle_table(&img, 0.2, 0.0, 0);
+        assert!(t.values.is_empty());
+        // γ = 0 at α = 0 only for a sun in the zenith.
+        let t = to_angle_table(&img, 0.2, 0.0, 1);
+        assert_eq!(t.valid, vec![false]);
+        let t = to_angle_table(&img, FRAC_PI_2, 0.0, 1);
+        assert_eq!(t.valid, vec![true]);
+    }
+
+    #[test]
     fn invalid_nodes_are_filled_smoothly() {
         let img = image_of(|ga| 2.0 + ga.gamma - 0.5 * ga.alpha, 0.0, 0.0);
-        let mut t = to_angle_table(&img, 0.0, 0.0, 181);
+        let mut t = to_angle_table(&img, 0.0, 0.0, 361);
         let invalid = t.valid.iter().filter(|&&v| !v).count();
-        assert!(invalid > 181 * 181 / 4);
+        assert!(invalid > 361 * 361 / 4);
         let (start, cpu) = (Instant::now(), thread_cpu_seconds());
         let stats = fill_invalid(&mut t);
         let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
-        println!("reproject::fill_invalid 181×181: {cpu:.3} s CPU ({wall:.3} s wall), {stats:?}");
+        println!("reproject::fill_invalid 361×361: {cpu:.3} s CPU ({wall:.3} s wall), {stats:?}");
         assert_eq!(stats.unknowns, invalid);
         assert!(t.valid.iter().all(|&v| v));
         // The fill of a linear function bounded by the parallelogram:
         // within the range of the known values, and without jumps.
         let (lo, hi) = (2.0 - 0.5 * PI, 2.0 + PI);
         assert!(t.values.iter().all(|&v| v > lo - 1e-3 && v < hi + 1e-3));
-        for j in 0..181 {
-            for i in 1..181 {
-                assert!((t.values[j * 181 + i] - t.values[j * 181 + i - 1]).abs() < 0.05);
+        for j in 0..361 {
+            for i in 1..361 {
+                assert!((t.values[j * 361 + i] - t.values[j * 361 + i - 1]).abs() < 0.05);
             }
         }
     }
