@@ -26,6 +26,9 @@
 //! Every level is kept on its grid, its fixed cells held at 0 (the
 //! correction there is 0), so that the sweeps read neighbours by index
 //! arithmetic from contiguous rows.
+//!
+//! (Over 600 lines with its unit tests, about 540 without: the levels,
+//! their sweeps and the coarsest solve are one solver.)
 
 /// The solve stops once ‖b − A·u‖₂ ≤ `TOLERANCE`·‖b‖₂, b the known cells'
 /// coupling into the unknowns: far below the noise of rendered radiance,
