@@ -27,8 +27,9 @@
 //! correction there is 0), so that the sweeps read neighbours by index
 //! arithmetic from contiguous rows.
 //!
-//! (Over 600 lines with its unit tests, about 540 without: the levels,
-//! their sweeps and the coarsest solve are one solver.)
+//! (Over 600 lines, about 620 without its unit tests: the levels, their
+//! sweeps, the coarsening and the coarsest solve are one solver, and its
+//! doc comments are long.)
 
 /// The solve stops once ‖b − A·u‖₂ ≤ `TOLERANCE`·‖b‖₂, b the known cells'
 /// coupling into the unknowns: far below the noise of rendered radiance,
