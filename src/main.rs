@@ -55,6 +55,9 @@ enum Command {
     /// Evaluate a sky-model dataset with the runtime's semantics: a
     /// summary, answers to a CSV of queries, or sphere/fisheye images.
     Eval(cli::eval::EvalArgs),
+    /// Compare a fitted dataset with its renders: SNR, errors by axis,
+    /// interpolation ratio, transmittance error; a Markdown report.
+    FitReport(cli::fit_report::FitReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -84,6 +87,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => cli::render::run(args),
         Command::Fit(args) => cli::fit::run(args),
         Command::Eval(args) => cli::eval::run(args),
+        Command::FitReport(args) => cli::fit_report::run(args),
         Command::Merge(args) => cli::merge::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::Plan(args) => cli::plan::run(args),

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod common;
 pub mod eval;
 pub mod fit;
+pub mod fit_report;
 pub mod merge;
 pub mod plan;
 pub mod progress;

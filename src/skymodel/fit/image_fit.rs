@@ -11,7 +11,10 @@
 //!    left to the blur and the rank truncation);
 //! 5. a truncated SVD, the optimal rank-k approximation in the least-squares
 //!    sense (Eckart–Young), in place of the supplement's CPD, which for a
-//!    2-way table is the same decomposition without its guarantee;
+//!    2-way table is the same decomposition without its guarantee; the
+//!    filled cells are then imputed from the decomposition a few rounds
+//!    (`impute_iterations`), since the fill is no data and should not
+//!    cost the valid cells accuracy;
 //! 6. the rank functions and E sampled at the non-uniform breaks.
 //!
 //! The polarisation, Q/I in the sun–view frame, goes through steps 2–6
@@ -20,7 +23,7 @@
 //! returns minus its reconstruction).
 
 use super::breaks::{emph_breaks, resample, sun_breaks, zenith_breaks};
-use super::decompose::truncated_svd;
+use super::decompose::{LowRank, truncated_svd};
 use super::emphasis::pre_emphasis_at;
 use super::laplace;
 use super::renders::Layer;
@@ -28,6 +31,26 @@ use super::reproject::{AlphaAxis, fill_invalid, to_angle_table, to_angle_table_o
 use super::settings::FitSettings;
 use super::smooth::gaussian;
 use crate::skymodel::dataset::{ComponentFit, RadianceConfigFit};
+
+/// The rank-`rank` truncated SVD of the n × n table `values` whose
+/// `valid` cells hold data and whose other cells hold a harmonic fill:
+/// `iterations` rounds of hard imputation (the invalid cells replaced by
+/// the last rank-`rank` reconstruction, then decomposed again), so that the
+/// fill bends toward the low-rank structure of the data instead of pulling
+/// the valid cells toward itself. With 0 rounds it is the plain truncated
+/// SVD of the filled table.
+fn low_rank_imputed(values: &mut [f64], valid: &[bool], n: usize, rank: usize, iterations: usize) -> LowRank {
+    let mut low = truncated_svd(values, n, n, rank);
+    for _ in 0..iterations {
+        for (k, v) in values.iter_mut().enumerate() {
+            if !valid[k] {
+                *v = low.value(k / n, k % n);
+            }
+        }
+        low = truncated_svd(values, n, n, rank);
+    }
+    low
+}
 
 /// One image's fit.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,11 +76,12 @@ pub fn fit_layer(
     let n = settings.resolution;
     let emphasis = pre_emphasis_at(&layer.radiance, altitude_m, &emph_breaks(settings.emph_breaks));
     let mut table = to_angle_table(&emphasis.image, elevation, altitude_m, n);
+    let valid = table.valid.clone();
     fill_invalid(&mut table);
     if settings.blur_sigma > 0.0 {
         gaussian(&mut table, settings.blur_sigma);
     }
-    let low = truncated_svd(&table.values, n, n, settings.rank);
+    let low = low_rank_imputed(&mut table.values, &valid, n, settings.rank, settings.impute_iterations);
     let (sb, zb) = (sun_breaks(settings.sun_breaks), zenith_breaks(settings.zenith_breaks));
     let components = (0..settings.rank)
         .map(|k| ComponentFit {
@@ -87,11 +111,18 @@ pub fn fit_layer(
             *v = -*v;
         }
         let mut table = to_angle_table_on(&image, elevation, altitude_m, n, AlphaAxis::Zenith);
+        let valid = table.valid.clone();
         fill_invalid(&mut table);
         if settings.blur_sigma > 0.0 {
             gaussian(&mut table, settings.blur_sigma);
         }
-        let low = truncated_svd(&table.values, n, n, settings.polarisation_rank);
+        let low = low_rank_imputed(
+            &mut table.values,
+            &valid,
+            n,
+            settings.polarisation_rank,
+            settings.impute_iterations,
+        );
         fit.polarisation = Some(
             (0..settings.polarisation_rank)
                 .map(|k| ComponentFit {

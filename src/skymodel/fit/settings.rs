@@ -37,6 +37,9 @@ pub struct FitSettings {
     pub emph_breaks: usize,
     /// σ of the Gaussian blur of the (γ, α) table, in nodes (seed: 1; 0 = none).
     pub blur_sigma: f64,
+    /// Rounds of imputing the (γ, α) table's filled cells from its low-rank
+    /// decomposition (0: the plain SVD of the filled table).
+    pub impute_iterations: usize,
 }
 
 #[derive(Debug, Deserialize)]
@@ -53,6 +56,7 @@ struct RawFit {
     zenith_breaks: Option<i64>,
     emph_breaks: Option<i64>,
     blur_sigma: Option<f64>,
+    impute_iterations: Option<i64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -155,6 +159,7 @@ impl FitSettings {
             zenith_breaks,
             emph_breaks,
             blur_sigma: real("blur_sigma", raw.blur_sigma, 1.0, 20.0)?,
+            impute_iterations: count("impute_iterations", raw.impute_iterations, 20, 0, 1000)?,
         })
     }
 
@@ -168,7 +173,7 @@ impl FitSettings {
         }
         s.push_str(&format!(
             "out = {}\nrank = {}\npolarisation_rank = {}\ntransmittance_rank = {}\nresolution = {}\n\
-             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\n",
+             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\nimpute_iterations = {}\n",
             q(&self.out),
             self.rank,
             self.polarisation_rank,
@@ -177,7 +182,8 @@ impl FitSettings {
             self.sun_breaks,
             self.zenith_breaks,
             self.emph_breaks,
-            self.blur_sigma
+            self.blur_sigma,
+            self.impute_iterations
         ));
         s
     }

@@ -1,0 +1,134 @@
+//! `atmosim fit-report FIT.toml`: the dataset that `atmosim fit FIT.toml`
+//! wrote, compared with the renders it came from (and optionally with
+//! renders between the nodes and transmittance tables off the nodes);
+//! writes `report.md` with box plots.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use atmosim::physics::solar::SolarSpectrum;
+use atmosim::skymodel::dataset::Dataset;
+use atmosim::skymodel::fit::renders;
+use atmosim::skymodel::fit::settings::FitSettings;
+use atmosim::skymodel::report::interpolation::interpolation;
+use atmosim::skymodel::report::score::score;
+use atmosim::skymodel::report::{ReportExtras, snr_summary, transmittance_check, write_report};
+use atmosim::skymodel::runtime::Model;
+
+use super::common::thread_pool;
+use super::fit::sidecars;
+
+#[derive(clap::Args)]
+pub struct FitReportArgs {
+    /// The fit settings the dataset was made with.
+    settings: PathBuf,
+    /// A render job's output directory with renders between the grid's
+    /// nodes, for the interpolation ratio.
+    #[arg(long)]
+    mid: Option<PathBuf>,
+    /// A transmittance job's output directory with tables off the fitted
+    /// nodes.
+    #[arg(long)]
+    transmittance_check: Option<PathBuf>,
+    /// Report directory (default: `<out>.report` beside the dataset).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads (0 or absent: one per available core).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
+    let settings = FitSettings::from_file(&args.settings)?;
+    let name = settings.out.display().to_string();
+    let model = Model::new(&name, Dataset::read(&settings.out)?, SolarSpectrum::kurucz()?)?;
+    let grid = renders::scan(&settings.renders)?;
+    let mid = args
+        .mid
+        .as_ref()
+        .map(|d| renders::scan(std::slice::from_ref(d)))
+        .transpose()?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{name}.report")));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let pool = thread_pool(args.threads)?;
+    let scores = pool.install(|| score(&model, &grid))?;
+    let mut extras = ReportExtras {
+        dataset: name.clone(),
+        ..Default::default()
+    };
+    if let Some(mid) = &mid {
+        extras.interpolation = pool.install(|| interpolation(&model, mid, &settings))?;
+    }
+    if let Some(t) = &settings.transmittance {
+        extras.transmittance_on_nodes = Some(transmittance_check::max_abs_error(&model, t)?);
+    }
+    if let Some(t) = &args.transmittance_check {
+        extras.transmittance_off_nodes = Some(transmittance_check::max_abs_error(&model, t)?);
+    }
+    let (provenance, figures) = sidecars(&settings.out);
+    if let Ok(text) = std::fs::read_to_string(&figures) {
+        extras.explained = explained_by_rank(&text);
+    }
+    if let Ok(text) = std::fs::read_to_string(&provenance) {
+        let value = |k: &str| {
+            text.lines()
+                .find_map(|l| l.strip_prefix(k).and_then(|r| r.trim_start().strip_prefix('=')))
+                .and_then(|v| v.trim().parse::<f64>().ok())
+        };
+        if let (Some(s), Some(n)) = (value("image_core_seconds"), value("images")) {
+            extras.core_seconds_per_image = Some(s / n);
+        }
+    }
+    write_report(&out, &scores, &extras)?;
+    let (mean, min, _) = snr_summary(&scores);
+    println!(
+        "{}: {} images, SNR mean {mean:.2} dB, minimum {min:.2} dB",
+        out.join("report.md").display(),
+        scores.len()
+    );
+    if !extras.interpolation.is_empty() {
+        let max = extras.interpolation.iter().map(|s| s.ratio()).fold(0.0f64, f64::max);
+        println!(
+            "interpolation ratio max {max:.3} over {} images",
+            extras.interpolation.len()
+        );
+    }
+    for (what, e) in [
+        ("on", extras.transmittance_on_nodes),
+        ("off", extras.transmittance_off_nodes),
+    ] {
+        if let Some((e, n)) = e {
+            println!("transmittance max |ΔT| {what} the nodes {e:.2e} ({n} points)");
+        }
+    }
+    Ok(())
+}
+
+/// (rank, mean, minimum) of the `explained_r<k>` columns of a fit's figures.
+fn explained_by_rank(csv: &str) -> Vec<(usize, f64, f64)> {
+    let mut lines = csv.lines();
+    let Some(header) = lines.next() else { return Vec::new() };
+    let columns: Vec<(usize, usize)> = header
+        .split(',')
+        .enumerate()
+        .filter_map(|(i, c)| {
+            c.strip_prefix("explained_r")
+                .and_then(|r| r.parse().ok())
+                .map(|r| (i, r))
+        })
+        .collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect())
+        .collect();
+    columns
+        .iter()
+        .map(|&(i, r)| {
+            let v: Vec<f64> = rows.iter().filter_map(|row| row.get(i).copied()).collect();
+            let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            (r, mean, v.iter().fold(1.0f64, |m, &x| m.min(x)))
+        })
+        .collect()
+}
