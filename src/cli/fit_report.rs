@@ -96,12 +96,15 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
             extras.interpolation.len()
         );
     }
-    for (what, e) in [
-        ("on", extras.transmittance_on_nodes),
-        ("off", extras.transmittance_off_nodes),
+    for (what, t) in [
+        ("on", &extras.transmittance_on_nodes),
+        ("off", &extras.transmittance_off_nodes),
     ] {
-        if let Some((e, n)) = e {
-            println!("transmittance max |ΔT| {what} the nodes {e:.2e} ({n} points)");
+        if let Some(t) = t {
+            println!(
+                "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
+                t.max_abs, t.points, t.worst_at
+            );
         }
     }
     Ok(())

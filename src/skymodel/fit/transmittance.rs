@@ -119,12 +119,16 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
                 format!("planet radius {radius} km; the runtime assumes 6378 km"),
             ));
         }
-        let visibility: f64 = attr("visibility_km")?.trim().parse().map_err(|_| {
-            Error::data(
-                &name,
-                "a transmittance table without a visibility (an OPAC aerosol is needed)",
-            )
-        })?;
+        // "none": no aerosol, as the renders' visibility 0 stands for.
+        let visibility_text = attr("visibility_km")?;
+        let visibility: f64 = if visibility_text.trim() == "none" {
+            0.0
+        } else {
+            visibility_text
+                .trim()
+                .parse()
+                .map_err(|_| Error::data(&name, format!("`visibility_km` = {visibility_text:?} is not a number")))?
+        };
         let altitude_km: f64 = attr("observer_altitude_km")?
             .trim()
             .parse()

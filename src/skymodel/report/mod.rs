@@ -17,6 +17,7 @@ use std::path::Path;
 use boxplot::{five_numbers, write_box_plot};
 use interpolation::InterpolationScore;
 use score::ImageScore;
+use transmittance_check::TransmittanceError;
 
 use crate::error::Result;
 use crate::io::atomic::write_atomic;
@@ -25,9 +26,9 @@ use crate::io::atomic::write_atomic;
 #[derive(Debug, Clone, Default)]
 pub struct ReportExtras {
     pub interpolation: Vec<InterpolationScore>,
-    /// (largest |ΔT|, points) at the fitted nodes and off them.
-    pub transmittance_on_nodes: Option<(f64, usize)>,
-    pub transmittance_off_nodes: Option<(f64, usize)>,
+    /// The largest |ΔT| at the fitted nodes and off them.
+    pub transmittance_on_nodes: Option<TransmittanceError>,
+    pub transmittance_off_nodes: Option<TransmittanceError>,
     /// Explained variance by rank: (rank, mean, minimum) over the images.
     pub explained: Vec<(usize, f64, f64)>,
     pub dataset: String,
@@ -69,15 +70,16 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             pol.iter().fold(0.0f64, |m, &x| m.max(x))
         ));
     }
-    if let Some((e, n)) = extras.transmittance_on_nodes {
-        md.push_str(&format!(
-            "| transmittance max abs. error on the nodes ({n} points) | {e:.2e} |\n"
-        ));
-    }
-    if let Some((e, n)) = extras.transmittance_off_nodes {
-        md.push_str(&format!(
-            "| transmittance max abs. error off the nodes ({n} points) | {e:.2e} |\n"
-        ));
+    for (what, t) in [
+        ("on", &extras.transmittance_on_nodes),
+        ("off", &extras.transmittance_off_nodes),
+    ] {
+        if let Some(t) = t {
+            md.push_str(&format!(
+                "| transmittance max abs. error {what} the nodes ({} points; largest at {}) | {:.2e} |\n",
+                t.points, t.worst_at, t.max_abs
+            ));
+        }
     }
     if !extras.interpolation.is_empty() {
         let ratios: Vec<f64> = extras.interpolation.iter().map(InterpolationScore::ratio).collect();

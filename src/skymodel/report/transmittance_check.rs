@@ -12,8 +12,18 @@ use crate::skymodel::angles::PLANET_RADIUS_M;
 use crate::skymodel::runtime::{Model, Parameters};
 
 /// The largest |T_dataset − T_table| over the visible points of every
-/// table under `dir`, and the number of points compared.
-pub fn max_abs_error(model: &Model, dir: &Path) -> Result<(f64, usize)> {
+/// table under `dir`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TransmittanceError {
+    pub max_abs: f64,
+    /// Points compared.
+    pub points: usize,
+    /// Where the largest error is.
+    pub worst_at: String,
+}
+
+/// Compares the dataset with every table under `dir`.
+pub fn max_abs_error(model: &Model, dir: &Path) -> Result<TransmittanceError> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| Error::io(dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path().join("transmittance.exr")))
@@ -23,7 +33,7 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<(f64, usize)> {
         paths.push(dir.join("transmittance.exr"));
     }
     paths.sort();
-    let (mut worst, mut count) = (0.0f64, 0usize);
+    let (mut worst, mut count, mut at) = (0.0f64, 0usize, String::new());
     let axes = &model.dataset().axes;
     for path in &paths {
         let name = path.display().to_string();
@@ -41,7 +51,7 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<(f64, usize)> {
         };
         let (altitudes, distances) = (attr("altitudes_km")?, attr("distances_km")?);
         let observer_m = attr("observer_altitude_km")?[0] * 1000.0;
-        let visibility = attr("visibility_km")?[0];
+        let visibility = attr("visibility_km").map(|v| v[0]).unwrap_or(0.0);
         let blocked = &exr
             .channels
             .iter()
@@ -85,13 +95,14 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<(f64, usize)> {
                     };
                     let fitted = model.transmittance(&p, lambda, distance);
                     let e = (fitted - t.samples[k] as f64).abs();
-                    if e > worst && std::env::var_os("ATMOSIM_DEBUG_T").is_some() {
-                        eprintln!(
-                            "{name}: h {observer_m} a {a} d {d} λ {lambda}: fit {fitted} table {}",
+                    if e > worst {
+                        worst = e;
+                        at = format!(
+                            "observer {observer_m} m, visibility {visibility} km, point at {a} km altitude and \
+                             {d} km ground distance, {lambda} nm: dataset {fitted:.4}, table {:.4}",
                             t.samples[k]
                         );
                     }
-                    worst = worst.max(e);
                     count += 1;
                 }
             }
@@ -103,5 +114,9 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<(f64, usize)> {
             "no transmittance table with the dataset's channels",
         ));
     }
-    Ok((worst, count))
+    Ok(TransmittanceError {
+        max_abs: worst,
+        points: count,
+        worst_at: at,
+    })
 }
