@@ -477,31 +477,13 @@ pub fn load(grid: &RenderGrid, config: &ConfigRender) -> Result<Vec<Layer>> {
     match &config.source {
         Source::Sphere { exr, camera } => {
             let image = Image::read(exr, *camera)?;
+            let (w, h) = camera.size();
             for &albedo in &grid.albedos {
                 for &lambda in &grid.wavelengths_nm {
                     let key = layer_name(lambda, albedo);
-                    let (w, h) = camera.size();
-                    let mut layer = Layer {
-                        albedo,
-                        wavelength_nm: lambda,
-                        radiance: SphereImage::zeros(w, h),
-                        radiance_se: SphereImage::zeros(w, h),
-                        polarisation: grid.polarised.then(|| SphereImage::zeros(w, h)),
-                    };
-                    let target = SphereImage::zeros(w, h);
-                    for j in 0..h {
-                        for i in 0..w {
-                            let k = j * w + i;
-                            let v = target.direction(i, j);
-                            let (value, se, p) = image.pixel(&key, k, v, sun, config.frame, grid.polarised)?;
-                            layer.radiance.values[k] = value;
-                            layer.radiance_se.values[k] = se;
-                            if let Some(pol) = layer.polarisation.as_mut() {
-                                pol.values[k] = p;
-                            }
-                        }
-                    }
-                    layers.push(layer);
+                    layers.push(layer_from(albedo, lambda, w, h, grid.polarised, |k, v| {
+                        image.pixel(&key, k, v, sun, config.frame, grid.polarised)
+                    })?);
                 }
             }
         }
@@ -514,18 +496,14 @@ pub fn load(grid: &RenderGrid, config: &ConfigRender) -> Result<Vec<Layer>> {
             let up = Image::read(up, *up_camera)?;
             let down = Image::read(down, *down_camera)?;
             let n = up.width.max(down.width);
-            let (w, h) = (2 * n, n);
             for &albedo in &grid.albedos {
                 for &lambda in &grid.wavelengths_nm {
                     let key = layer_name(lambda, albedo);
                     // Per-pixel values of each fisheye first (the frame is
                     // per pixel), then resampled as scalars.
                     let fields = |img: &Image| -> Result<[Vec<f64>; 3]> {
-                        let mut out = [
-                            vec![0.0; img.width * img.height],
-                            vec![0.0; img.width * img.height],
-                            vec![0.0; img.width * img.height],
-                        ];
+                        let cells = img.width * img.height;
+                        let mut out = [vec![0.0; cells], vec![0.0; cells], vec![0.0; cells]];
                         for j in 0..img.height {
                             for i in 0..img.width {
                                 let Some(ray) = img.camera.centre_ray(i, j) else {
@@ -542,36 +520,49 @@ pub fn load(grid: &RenderGrid, config: &ConfigRender) -> Result<Vec<Layer>> {
                         }
                         Ok(out)
                     };
-                    let fu = fields(&up)?;
-                    let fd = fields(&down)?;
-                    let mut layer = Layer {
-                        albedo,
-                        wavelength_nm: lambda,
-                        radiance: SphereImage::zeros(w, h),
-                        radiance_se: SphereImage::zeros(w, h),
-                        polarisation: grid.polarised.then(|| SphereImage::zeros(w, h)),
-                    };
-                    let target = SphereImage::zeros(w, h);
-                    for j in 0..h {
-                        for i in 0..w {
-                            let v = target.direction(i, j);
-                            let (img, f) = if v.z >= 0.0 { (&up, &fu) } else { (&down, &fd) };
-                            let k = j * w + i;
-                            let value = img.bilinear(&f[0], v);
-                            layer.radiance.values[k] = value;
-                            layer.radiance_se.values[k] = img.bilinear(&f[1], v);
-                            if let Some(pol) = layer.polarisation.as_mut() {
-                                let q = img.bilinear(&f[2], v);
-                                pol.values[k] = if value > 0.0 { q / value } else { 0.0 };
-                            }
-                        }
-                    }
-                    layers.push(layer);
+                    let (fu, fd) = (fields(&up)?, fields(&down)?);
+                    layers.push(layer_from(albedo, lambda, 2 * n, n, grid.polarised, |_, v| {
+                        let (img, f) = if v.z >= 0.0 { (&up, &fu) } else { (&down, &fd) };
+                        let value = img.bilinear(&f[0], v);
+                        let q = img.bilinear(&f[2], v);
+                        Ok((value, img.bilinear(&f[1], v), if value > 0.0 { q / value } else { 0.0 }))
+                    })?);
                 }
             }
         }
     }
     Ok(layers)
+}
+
+/// A `w` × `h` layer whose pixel k, looking along v, has the (I, se of I,
+/// Q/I) that `pixel(k, v)` gives.
+fn layer_from(
+    albedo: f64,
+    wavelength_nm: f64,
+    w: usize,
+    h: usize,
+    polarised: bool,
+    mut pixel: impl FnMut(usize, DVec3) -> Result<(f64, f64, f64)>,
+) -> Result<Layer> {
+    let mut layer = Layer {
+        albedo,
+        wavelength_nm,
+        radiance: SphereImage::zeros(w, h),
+        radiance_se: SphereImage::zeros(w, h),
+        polarisation: polarised.then(|| SphereImage::zeros(w, h)),
+    };
+    for j in 0..h {
+        for i in 0..w {
+            let k = j * w + i;
+            let (value, se, p) = pixel(k, layer.radiance.direction(i, j))?;
+            layer.radiance.values[k] = value;
+            layer.radiance_se.values[k] = se;
+            if let Some(pol) = layer.polarisation.as_mut() {
+                pol.values[k] = p;
+            }
+        }
+    }
+    Ok(layer)
 }
 
 /// One image's channels by name.
