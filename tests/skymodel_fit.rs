@@ -21,7 +21,6 @@ use atmosim::physics::solar::SolarSpectrum;
 use atmosim::sensor::camera::{Camera, Hemisphere, Projection};
 use atmosim::skymodel::angles::{SunPosition, ViewAngles};
 use atmosim::skymodel::dataset::Dataset;
-use atmosim::skymodel::fit::SphereImage;
 use atmosim::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
 use atmosim::skymodel::fit::image_fit::fit_layer;
 use atmosim::skymodel::fit::renders;
