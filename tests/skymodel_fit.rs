@@ -379,3 +379,91 @@ fn up_and_down_fisheyes_fit_like_a_sphere() {
     // fisheyes' resampling too.
     assert!(worst < 0.02, "fisheye fit vs the synthetic sky: {worst:e} of the peak");
 }
+
+/// `atmosim eval DATASET --queries Q.csv`: the rows come back with the
+/// runtime's four answers appended, equal to the library's; bad rows are
+/// refused with exit 2 before any answer.
+#[test]
+fn queries_are_answered_as_the_runtime_takes_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    write_render(&root.join("renders").join("elev10"), 10.0);
+    write_table(&root.join("tables"));
+    std::fs::write(
+        root.join("fit.toml"),
+        "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"sky.dat\"\ntransmittance_rank = 2\nresolution = 91\n",
+    )
+    .unwrap();
+    let out = atmosim()
+        .current_dir(root)
+        .args(["fit", "fit.toml", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let header = "view_x_m,view_y_m,view_z_m,dir_x,dir_y,dir_z,sun_elevation_deg,sun_azimuth_deg,visibility_km,albedo,wavelength_nm,distance_m";
+    let rows = [
+        "0,0,0,0.5,0.2,0.6,10,0,50,0.3,520,inf",
+        "100,-50,20,-0.3,0.1,0.2,10,30,50,0.3,590,2000",
+    ];
+    std::fs::write(root.join("q.csv"), format!("{header}\n{}\n", rows.join("\n"))).unwrap();
+    let out = atmosim()
+        .current_dir(root)
+        .args(["eval", "sky.dat", "--queries", "q.csv"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        format!("{header},sky_radiance,sun_radiance,polarisation,transmittance")
+    );
+    let model = Model::new(
+        "sky.dat",
+        Dataset::read(&root.join("sky.dat")).unwrap(),
+        SolarSpectrum::kurucz().unwrap(),
+    )
+    .unwrap();
+    for (row, line) in rows.iter().zip(lines) {
+        let v: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
+        let answers: Vec<f64> = line.split(',').skip(12).map(|x| x.parse().unwrap()).collect();
+        let p = Parameters::new(
+            glam::DVec3::new(v[0], v[1], v[2]),
+            glam::DVec3::new(v[3], v[4], v[5]),
+            v[6].to_radians(),
+            v[7].to_radians(),
+            v[8],
+            v[9],
+        );
+        let distance = if v[11].is_infinite() { f64::MAX } else { v[11] };
+        let expected = [
+            model.sky_radiance(&p, v[10]),
+            model.sun_radiance(&p, v[10]),
+            model.polarisation(&p, v[10]).unwrap(),
+            model.transmittance(&p, v[10], distance),
+        ];
+        for (a, e) in answers.iter().zip(expected) {
+            assert!(
+                (a - e).abs() <= 1e-8 * e.abs().max(1e-30),
+                "{row}: {answers:?} vs {expected:?}"
+            );
+        }
+        assert!(
+            answers[0] > 0.0 && answers[3] > 0.0 && answers[3] <= 1.0,
+            "{row}: {answers:?}"
+        );
+    }
+    std::fs::write(
+        root.join("bad.csv"),
+        format!("{header}\n0,0,-5,0,0,1,10,0,50,0.3,520,inf\n"),
+    )
+    .unwrap();
+    let out = atmosim()
+        .current_dir(root)
+        .args(["eval", "sky.dat", "--queries", "bad.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("view_z_m"));
+    assert!(out.stdout.is_empty());
+}
