@@ -276,8 +276,8 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
     }
 }
 
-#[test]
-fn damaged_datasets_are_refused_with_exit_2() {
+/// A directory with the synthetic sky at 10° fitted coarsely into `sky.dat`.
+fn fit_one_configuration() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path();
     write_render(&root.join("renders").join("elev10"), 10.0);
@@ -293,6 +293,13 @@ fn damaged_datasets_are_refused_with_exit_2() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    dir
+}
+
+#[test]
+fn damaged_datasets_are_refused_with_exit_2() {
+    let dir = fit_one_configuration();
+    let root = dir.path();
     let bytes = std::fs::read(root.join("sky.dat")).unwrap();
     for (name, data) in [
         ("short.dat", &bytes[..bytes.len() - 3]),
@@ -385,21 +392,8 @@ fn up_and_down_fisheyes_fit_like_a_sphere() {
 /// refused with exit 2 before any answer.
 #[test]
 fn queries_are_answered_as_the_runtime_takes_them() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = fit_one_configuration();
     let root = dir.path();
-    write_render(&root.join("renders").join("elev10"), 10.0);
-    write_table(&root.join("tables"));
-    std::fs::write(
-        root.join("fit.toml"),
-        "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"sky.dat\"\ntransmittance_rank = 2\nresolution = 91\n",
-    )
-    .unwrap();
-    let out = atmosim()
-        .current_dir(root)
-        .args(["fit", "fit.toml", "-q"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let header = "view_x_m,view_y_m,view_z_m,dir_x,dir_y,dir_z,sun_elevation_deg,sun_azimuth_deg,visibility_km,albedo,wavelength_nm,distance_m";
     let rows = [
         "0,0,0,0.5,0.2,0.6,10,0,50,0.3,520,inf",

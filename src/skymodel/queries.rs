@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 
-use super::runtime::Model;
+use super::runtime::{Model, Parameters};
 use crate::error::{Error, Result};
 
 /// The input columns, in the order the runtime's API takes them.
@@ -136,7 +136,7 @@ pub fn answer(model: &Model, text: &str, name: &str) -> Result<String> {
     }
     let mut out = format!("{},{}\n", header.trim_end(), RESULTS.join(","));
     for (line, v) in rows {
-        let params = model.parameters(
+        let params = Parameters::new(
             DVec3::new(v[0], v[1], v[2]),
             DVec3::new(v[3], v[4], v[5]),
             v[6].to_radians(),

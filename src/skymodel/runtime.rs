@@ -208,19 +208,6 @@ impl Model {
         &self.dataset
     }
 
-    /// [`Parameters::new`].
-    pub fn parameters(
-        &self,
-        viewpoint: DVec3,
-        direction: DVec3,
-        sun_elevation: f64,
-        sun_azimuth: f64,
-        visibility_km: f64,
-        albedo: f64,
-    ) -> Parameters {
-        Parameters::new(viewpoint, direction, sun_elevation, sun_azimuth, visibility_km, albedo)
-    }
-
     /// The channel of `wavelength_nm`, none outside the dataset's channels.
     fn channel(&self, wavelength_nm: f64) -> Option<usize> {
         let a = &self.dataset.axes;
