@@ -22,7 +22,7 @@ use atmosim::sensor::camera::{Camera, Hemisphere, Projection};
 use atmosim::skymodel::angles::{SunPosition, ViewAngles};
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
-use atmosim::skymodel::fit::image_fit::fit_layer;
+use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::renders;
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::runtime::{Model, Parameters};
@@ -193,10 +193,21 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
     let grid = renders::scan(&[root.join("renders")]).unwrap();
     let (sb, zb, eb) = (sun_breaks(275), zenith_breaks(205), emph_breaks(118));
     let (mut worst_half, mut worst_truth, mut worst_pol) = (0.0f64, 0.0f64, 0.0f64);
-    for config in &grid.configs {
-        let layers = renders::load(&grid, config).unwrap();
-        for (c, layer) in layers.iter().enumerate() {
-            let own = fit_layer(layer, config.elevation_deg, 0.0, &settings, true);
+    // Each elevation's tables borrow from the other's, as in the fit.
+    let layers: Vec<_> = grid.configs.iter().map(|c| renders::load(&grid, c).unwrap()).collect();
+    let prepared: Vec<Vec<_>> = grid
+        .configs
+        .iter()
+        .zip(&layers)
+        .map(|(config, ls)| {
+            ls.iter()
+                .map(|l| prepare_layer(l, config.elevation_deg, 0.0, &settings, true))
+                .collect()
+        })
+        .collect();
+    for (e, config) in grid.configs.iter().enumerate() {
+        for (c, layer) in layers[e].iter().enumerate() {
+            let own = fit_prepared(&prepared[e][c], &[&prepared[1 - e][c]], &settings);
             let img = &layer.radiance;
             let peak = img.values.iter().fold(0.0f64, |m, &v| m.max(v));
             let elevation = config.elevation_deg.to_radians();

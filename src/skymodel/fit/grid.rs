@@ -1,7 +1,8 @@
 //! A whole fit: every configuration of a rendered grid fitted in parallel
 //! (each task's images read once, its albedos and channels fitted in
-//! turn), the transmittance tables fitted per observer altitude, and the
-//! result gathered in the dataset's order.
+//! turn, each with the tables of the neighbouring sun elevations at hand),
+//! the transmittance tables fitted per observer altitude, and the result
+//! gathered in the dataset's order.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -9,11 +10,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 
 use super::breaks::{emph_breaks, sun_breaks, zenith_breaks};
-use super::image_fit::{LayerFit, fit_layer};
+use super::image_fit::{LayerFit, PreparedLayer, fit_prepared, prepare_layer};
 use super::renders::{self, RenderGrid};
 use super::settings::FitSettings;
 use super::transmittance::{self, TransmittanceResult};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::skymodel::dataset::{Axes, DatasetFit, PolarisationFit, RadianceConfigFit, RadianceFit};
 
 /// A finished fit before it is rounded to the file's precisions.
@@ -46,38 +47,60 @@ pub struct ImageStats {
 /// Fits the grid of `settings.renders`; `done` is called with the number
 /// of configurations finished so far (for progress).
 pub fn fit_grid(settings: &FitSettings, grid: &RenderGrid, done: &(dyn Fn(usize) + Sync)) -> Result<GridFit> {
-    let transmittance_dir = settings.transmittance.as_deref().ok_or_else(|| {
-        Error::data(
-            "fit settings",
-            "no `transmittance` directory: the dataset format needs a transmittance part \
-             (render one with `atmosim transmittance` and layout = \"sky_model\")",
-        )
-    })?;
-    let transmittance = transmittance::fit(transmittance_dir, &grid.wavelengths_nm, settings.transmittance_rank)?;
+    let tables = match settings.transmittance.as_deref() {
+        Some(dir) => transmittance::read(dir, &grid.wavelengths_nm)?,
+        None => transmittance::compute(&grid.jobs, &grid.wavelengths_nm)?,
+    };
+    let transmittance = transmittance::fit(&tables, &grid.wavelengths_nm, settings.transmittance_rank)?;
     let finished = AtomicUsize::new(0);
     let polarised = grid.polarised && settings.polarisation_rank > 0;
-    let per_config: Vec<(Vec<LayerFit>, f64)> = grid
-        .configs
-        .par_iter()
-        .map(|config| {
-            let start = std::time::Instant::now();
-            let layers = renders::load(grid, config)?;
-            let fits = layers
-                .iter()
-                .map(|layer| {
-                    fit_layer(
-                        layer,
-                        config.elevation_deg,
-                        config.altitude_km * 1000.0,
-                        settings,
-                        polarised,
-                    )
-                })
-                .collect::<Vec<_>>();
-            done(finished.fetch_add(1, Ordering::Relaxed) + 1);
-            Ok((fits, start.elapsed().as_secs_f64()))
-        })
-        .collect::<Result<_>>()?;
+    // One (visibility, altitude) column of sun elevations at a time: its
+    // images are prepared in parallel, then each image is completed with
+    // its neighbouring elevations' tables (same albedo and channel) and
+    // fitted, in parallel again. Only one column's tables are held.
+    let n_elev = grid.elevations_deg.len();
+    let mut per_config: Vec<(Vec<LayerFit>, f64)> = Vec::with_capacity(grid.configs.len());
+    for column in grid.configs.chunks(n_elev) {
+        let prepared: Vec<(Vec<PreparedLayer>, f64)> = column
+            .par_iter()
+            .map(|config| {
+                let start = std::time::Instant::now();
+                let layers = renders::load(grid, config)?;
+                let prepared = layers
+                    .iter()
+                    .map(|layer| {
+                        prepare_layer(
+                            layer,
+                            config.elevation_deg,
+                            config.altitude_km * 1000.0,
+                            settings,
+                            polarised,
+                        )
+                    })
+                    .collect::<Vec<_>>();
+                Ok((prepared, start.elapsed().as_secs_f64()))
+            })
+            .collect::<Result<_>>()?;
+        let fitted: Vec<(Vec<LayerFit>, f64)> = (0..column.len())
+            .into_par_iter()
+            .map(|e| {
+                let start = std::time::Instant::now();
+                let fits = (0..prepared[e].0.len())
+                    .map(|l| {
+                        let neighbours: Vec<&PreparedLayer> = [e.checked_sub(1), Some(e + 1)]
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|k| prepared.get(k).map(|(layers, _)| &layers[l]))
+                            .collect();
+                        fit_prepared(&prepared[e].0[l], &neighbours, settings)
+                    })
+                    .collect::<Vec<_>>();
+                done(finished.fetch_add(1, Ordering::Relaxed) + 1);
+                (fits, prepared[e].1 + start.elapsed().as_secs_f64())
+            })
+            .collect();
+        per_config.extend(fitted);
+    }
     let axes = Axes {
         visibilities_km: grid.visibilities_km.clone(),
         albedos: grid.albedos.clone(),
@@ -158,6 +181,7 @@ pub fn provenance(settings: &FitSettings, grid: &RenderGrid, fit: &GridFit, data
         samples.iter().min().unwrap_or(&0),
         samples.iter().max().unwrap_or(&0)
     ));
+    s.push_str(&format!("transmittance_tables = {:?}\n", fit.transmittance.source));
     s.push_str(&format!(
         "images = {}\nimage_core_seconds = {:.3}\ntransmittance_max_abs_error = {:.6e}\n",
         fit.images.len(),

@@ -3,9 +3,11 @@
 //!
 //! 1. pre-emphasis: the sharp horizon out, the de-emphasis E(θ′) kept;
 //! 2. reprojection of the pre-emphasised image to the (γ, α) plane;
-//! 3. harmonic infill of the part no direction reaches, so that
-//!    interpolating between fitted configurations never reads undefined
-//!    cells;
+//! 3. the cells the sky has no direction for: those the neighbouring sun
+//!    elevations' skies have are borrowed from them (the supplement's
+//!    dilation, [`super::neighbours`]), the rest filled harmonically, so
+//!    that interpolating between fitted configurations never reads
+//!    undefined cells;
 //! 4. a Gaussian blur of σ nodes (the supplement's noise filter; its
 //!    wavelet denoising of the renders is not done: the renders' noise is
 //!    left to the blur and the rank truncation);
@@ -22,10 +24,12 @@
 //! elevation (as the runtime reads it), and is stored negated (the runtime
 //! returns minus its reconstruction).
 
+use super::AngleTable;
 use super::breaks::{emph_breaks, resample, sun_breaks, zenith_breaks};
 use super::decompose::{LowRank, truncated_svd};
 use super::emphasis::pre_emphasis_at;
 use super::laplace;
+use super::neighbours::borrow_from_neighbours;
 use super::renders::Layer;
 use super::reproject::{AlphaAxis, fill_invalid, to_angle_table, to_angle_table_on};
 use super::settings::FitSettings;
@@ -63,8 +67,107 @@ pub struct LayerFit {
     pub polarisation_explained: Vec<f64>,
 }
 
-/// Fits `layer` for a sun at `elevation_deg` and an observer at
-/// `altitude_m`; the polarisation too when `polarised`.
+/// One image taken to the (γ, α) plane, before any cell it lacks is
+/// filled: steps 1 and 2, and the same for the polarisation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreparedLayer {
+    /// E(θ′) at the emphasis breaks.
+    pub emph: Vec<f64>,
+    pub kappa: f64,
+    pub radiance: AngleTable,
+    /// −Q/I in the sun–view frame on (γ, θ′), if fitted.
+    pub polarisation: Option<AngleTable>,
+}
+
+/// Steps 1 and 2 of `layer`'s fit for a sun at `elevation_deg` and an
+/// observer at `altitude_m`; the polarisation too when `polarised`.
+pub fn prepare_layer(
+    layer: &Layer,
+    elevation_deg: f64,
+    altitude_m: f64,
+    settings: &FitSettings,
+    polarised: bool,
+) -> PreparedLayer {
+    let elevation = elevation_deg.to_radians();
+    let n = settings.resolution;
+    let emphasis = pre_emphasis_at(&layer.radiance, altitude_m, &emph_breaks(settings.emph_breaks));
+    let radiance = to_angle_table(&emphasis.image, elevation, altitude_m, n);
+    let polarisation = match (polarised, layer.polarisation.as_ref()) {
+        (true, Some(p)) => {
+            // Where I is 0 (a black ground seen from the ground) Q/I is
+            // undefined: those pixels are filled from their neighbours.
+            let mut image = p.clone();
+            let peak = layer.radiance.values.iter().fold(0.0f64, |m, &v| m.max(v));
+            let known: Vec<bool> = layer.radiance.values.iter().map(|&v| v > 1e-9 * peak).collect();
+            laplace::fill(&mut image.values, &known, image.width, image.height, true);
+            for v in image.values.iter_mut() {
+                *v = -*v;
+            }
+            Some(to_angle_table_on(&image, elevation, altitude_m, n, AlphaAxis::Zenith))
+        }
+        _ => None,
+    };
+    PreparedLayer {
+        emph: emphasis.values,
+        kappa: emphasis.kappa,
+        radiance,
+        polarisation,
+    }
+}
+
+/// Steps 3 to 5 for one raw table: the cells the neighbouring elevations'
+/// tables have borrowed from them, the rest filled harmonically, the blur,
+/// and the decomposition (imputing only the harmonically filled cells).
+fn complete(raw: &AngleTable, neighbours: &[&AngleTable], settings: &FitSettings, rank: usize) -> LowRank {
+    let mut table = raw.clone();
+    let data = borrow_from_neighbours(&mut table, neighbours);
+    table.valid.clone_from(&data);
+    fill_invalid(&mut table);
+    if settings.blur_sigma > 0.0 {
+        gaussian(&mut table, settings.blur_sigma);
+    }
+    low_rank_imputed(&mut table.values, &data, table.n, rank, settings.impute_iterations)
+}
+
+/// Steps 3 to 6 of a prepared image, with the prepared images of the
+/// neighbouring sun elevations (same configuration otherwise) to borrow
+/// from (see [`super::neighbours`]; none when `settings.neighbour_fill`
+/// is off).
+pub fn fit_prepared(prepared: &PreparedLayer, neighbours: &[&PreparedLayer], settings: &FitSettings) -> LayerFit {
+    let neighbours: &[&PreparedLayer] = if settings.neighbour_fill { neighbours } else { &[] };
+    let (sb, zb) = (sun_breaks(settings.sun_breaks), zenith_breaks(settings.zenith_breaks));
+    let components = |low: &LowRank, rank: usize| -> Vec<ComponentFit> {
+        (0..rank)
+            .map(|k| ComponentFit {
+                sun: resample(&low.sun[k], &sb),
+                zenith: resample(&low.zenith[k], &zb),
+            })
+            .collect()
+    };
+    let near: Vec<&AngleTable> = neighbours.iter().map(|p| &p.radiance).collect();
+    let low = complete(&prepared.radiance, &near, settings, settings.rank);
+    let mut fit = LayerFit {
+        radiance: RadianceConfigFit {
+            components: components(&low, settings.rank),
+            emph: prepared.emph.clone(),
+        },
+        explained: low.explained_variance(),
+        kappa: prepared.kappa,
+        polarisation: None,
+        polarisation_explained: Vec::new(),
+    };
+    if let Some(table) = &prepared.polarisation {
+        let near: Vec<&AngleTable> = neighbours.iter().filter_map(|p| p.polarisation.as_ref()).collect();
+        let low = complete(table, &near, settings, settings.polarisation_rank);
+        fit.polarisation = Some(components(&low, settings.polarisation_rank));
+        fit.polarisation_explained = low.explained_variance();
+    }
+    fit
+}
+
+/// Fits `layer` alone (no neighbouring elevations) for a sun at
+/// `elevation_deg` and an observer at `altitude_m`; the polarisation too
+/// when `polarised`.
 pub fn fit_layer(
     layer: &Layer,
     elevation_deg: f64,
@@ -72,66 +175,9 @@ pub fn fit_layer(
     settings: &FitSettings,
     polarised: bool,
 ) -> LayerFit {
-    let elevation = elevation_deg.to_radians();
-    let n = settings.resolution;
-    let emphasis = pre_emphasis_at(&layer.radiance, altitude_m, &emph_breaks(settings.emph_breaks));
-    let mut table = to_angle_table(&emphasis.image, elevation, altitude_m, n);
-    let valid = table.valid.clone();
-    fill_invalid(&mut table);
-    if settings.blur_sigma > 0.0 {
-        gaussian(&mut table, settings.blur_sigma);
-    }
-    let low = low_rank_imputed(&mut table.values, &valid, n, settings.rank, settings.impute_iterations);
-    let (sb, zb) = (sun_breaks(settings.sun_breaks), zenith_breaks(settings.zenith_breaks));
-    let components = (0..settings.rank)
-        .map(|k| ComponentFit {
-            sun: resample(&low.sun[k], &sb),
-            zenith: resample(&low.zenith[k], &zb),
-        })
-        .collect();
-    let radiance = RadianceConfigFit {
-        components,
-        emph: emphasis.values.clone(),
-    };
-    let mut fit = LayerFit {
-        radiance,
-        explained: low.explained_variance(),
-        kappa: emphasis.kappa,
-        polarisation: None,
-        polarisation_explained: Vec::new(),
-    };
-    if let (true, Some(p)) = (polarised, layer.polarisation.as_ref()) {
-        // Where I is 0 (a black ground seen from the ground) Q/I is
-        // undefined: those pixels are filled from their neighbours.
-        let mut image = p.clone();
-        let peak = layer.radiance.values.iter().fold(0.0f64, |m, &v| m.max(v));
-        let known: Vec<bool> = layer.radiance.values.iter().map(|&v| v > 1e-9 * peak).collect();
-        laplace::fill(&mut image.values, &known, image.width, image.height, true);
-        for v in image.values.iter_mut() {
-            *v = -*v;
-        }
-        let mut table = to_angle_table_on(&image, elevation, altitude_m, n, AlphaAxis::Zenith);
-        let valid = table.valid.clone();
-        fill_invalid(&mut table);
-        if settings.blur_sigma > 0.0 {
-            gaussian(&mut table, settings.blur_sigma);
-        }
-        let low = low_rank_imputed(
-            &mut table.values,
-            &valid,
-            n,
-            settings.polarisation_rank,
-            settings.impute_iterations,
-        );
-        fit.polarisation = Some(
-            (0..settings.polarisation_rank)
-                .map(|k| ComponentFit {
-                    sun: resample(&low.sun[k], &sb),
-                    zenith: resample(&low.zenith[k], &zb),
-                })
-                .collect(),
-        );
-        fit.polarisation_explained = low.explained_variance();
-    }
-    fit
+    fit_prepared(
+        &prepare_layer(layer, elevation_deg, altitude_m, settings, polarised),
+        &[],
+        settings,
+    )
 }

@@ -10,6 +10,7 @@ pub mod emphasis;
 pub mod grid;
 pub mod image_fit;
 pub mod laplace;
+pub mod neighbours;
 pub mod renders;
 pub mod reproject;
 pub mod settings;

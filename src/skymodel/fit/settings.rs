@@ -18,7 +18,8 @@ pub struct FitSettings {
     /// The render jobs' output directories (each holds one directory per task).
     pub renders: Vec<PathBuf>,
     /// A transmittance job's output directory (tables on the `sky_model`
-    /// layout), if given.
+    /// layout), if given; without it the fit computes the tables of the
+    /// render jobs' atmosphere itself (32 × 64 nodes, analytic).
     pub transmittance: Option<PathBuf>,
     /// The dataset file to write.
     pub out: PathBuf,
@@ -40,6 +41,10 @@ pub struct FitSettings {
     /// Rounds of imputing the (γ, α) table's filled cells from its low-rank
     /// decomposition (0: the plain SVD of the filled table).
     pub impute_iterations: usize,
+    /// Whether a table's cells that its own sky lacks are borrowed from the
+    /// neighbouring sun elevations' tables where they have them (the
+    /// supplement's dilation) before the rest is filled harmonically.
+    pub neighbour_fill: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -57,6 +62,7 @@ struct RawFit {
     emph_breaks: Option<i64>,
     blur_sigma: Option<f64>,
     impute_iterations: Option<i64>,
+    neighbour_fill: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -160,6 +166,7 @@ impl FitSettings {
             emph_breaks,
             blur_sigma: real("blur_sigma", raw.blur_sigma, 1.0, 20.0)?,
             impute_iterations: count("impute_iterations", raw.impute_iterations, 20, 0, 1000)?,
+            neighbour_fill: raw.neighbour_fill.unwrap_or(true),
         })
     }
 
@@ -173,7 +180,7 @@ impl FitSettings {
         }
         s.push_str(&format!(
             "out = {}\nrank = {}\npolarisation_rank = {}\ntransmittance_rank = {}\nresolution = {}\n\
-             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\nimpute_iterations = {}\n",
+             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\nimpute_iterations = {}\nneighbour_fill = {}\n",
             q(&self.out),
             self.rank,
             self.polarisation_rank,
@@ -183,7 +190,8 @@ impl FitSettings {
             self.zenith_breaks,
             self.emph_breaks,
             self.blur_sigma,
-            self.impute_iterations
+            self.impute_iterations,
+            self.neighbour_fill
         ));
         s
     }
@@ -204,6 +212,7 @@ mod tests {
         );
         assert_eq!(s.blur_sigma, 1.0);
         assert_eq!(s.transmittance, None);
+        assert!(s.neighbour_fill);
         // The provenance text reads back as the same settings.
         assert_eq!(FitSettings::parse(&s.to_toml(), "again").unwrap(), s);
     }
@@ -218,6 +227,7 @@ mod tests {
             ("renders = \"r\"\nout = \"x\"\nblur_sigma = -1.0\n", "blur_sigma"),
             ("renders = []\nout = \"x\"\n", "renders"),
             ("renders = \"r\"\nout = \"x\"\nrnak = 3\n", "rnak"),
+            ("renders = \"r\"\nout = \"x\"\nneighbour_fill = 1\n", "neighbour_fill"),
         ] {
             let e = FitSettings::parse(text, "fit.toml").unwrap_err();
             assert!(e.is_user_error());

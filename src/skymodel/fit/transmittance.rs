@@ -3,9 +3,11 @@
 //! (visibility, channel), decomposed by a truncated SVD.
 //!
 //! The tables are those of `atmosim transmittance` with
-//! `layout = "sky_model"`: one task per (visibility, observer altitude),
-//! `<λ>nm.T` per channel and `blocked` for nodes whose line of sight passes
-//! below the ground. A blocked node has no transmittance; it is filled by
+//! `layout = "sky_model"` ([`read`]): one task per (visibility, observer
+//! altitude), `<λ>nm.T` per channel and `blocked` for nodes whose line of
+//! sight passes below the ground; or, when the fit names no table
+//! directory, the same tables computed from the render jobs themselves
+//! ([`compute`], on the default 32 × 64 nodes). A blocked node has no transmittance; it is filled by
 //! harmonic continuation of its visible neighbours' √T over the
 //! (distance, altitude) node grid, so that the runtime, which interpolates
 //! between nodes and observer altitudes, reads a smooth surface there and
@@ -34,6 +36,8 @@ pub struct TransmittanceResult {
     pub explained: Vec<Vec<f64>>,
     /// Blocked nodes filled, of all nodes.
     pub filled: (usize, usize),
+    /// Where the tables came from: their directory, or the render jobs.
+    pub source: String,
 }
 
 /// One table: (visibility, observer altitude) → per channel √T over the
@@ -44,10 +48,113 @@ struct Table {
     blocked: Vec<bool>,
 }
 
-/// Reads every table under `dir` and fits rank `rank` per observer
-/// altitude; `wavelengths_nm` are the radiance part's channel centres,
-/// which the tables must have.
-pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<TransmittanceResult> {
+/// The tables of a grid, keyed by (visibility km, observer altitude m) as
+/// bits, on `n_a` × `n_d` runtime nodes; `source` names where they came
+/// from, for errors.
+pub struct Tables {
+    by_key: BTreeMap<(u64, u64), Table>,
+    n_a: usize,
+    n_d: usize,
+    source: String,
+}
+
+/// The EXR's or table's pixel (row i = altitude, column j = distance) to
+/// node d·n_a + a, the runtime's order.
+fn to_node_order(v: &[f64], n_a: usize, n_d: usize) -> Vec<f64> {
+    let mut out = vec![0.0; n_a * n_d];
+    for i in 0..n_a {
+        for j in 0..n_d {
+            out[j * n_a + i] = v[i * n_d + j];
+        }
+    }
+    out
+}
+
+impl Table {
+    fn new(t: Vec<Vec<f64>>, blocked: Vec<bool>) -> Table {
+        let sqrt_t = t
+            .iter()
+            .map(|c| c.iter().map(|&x| x.max(0.0).sqrt()).collect())
+            .collect();
+        Table { sqrt_t, t, blocked }
+    }
+}
+
+/// Computes the transmittance tables of every (visibility, observer
+/// altitude) of the render jobs `jobs` ((hash, file) as the renders record
+/// them) on the runtime's default 32 × 64 nodes, for the channels
+/// `wavelengths_nm`. A job file that is gone or has changed since the
+/// renders is refused: the tables must be of the rendered atmosphere.
+pub fn compute(jobs: &[(String, String)], wavelengths_nm: &[f64]) -> Result<Tables> {
+    use crate::job::Job;
+    use crate::job::transmittance::{
+        DEFAULT_ALTITUDE_NODES, DEFAULT_DISTANCE_NODES, DEFAULT_SAMPLES, Estimator, Grid, TransmittanceSpec,
+    };
+    let (n_a, n_d) = (DEFAULT_ALTITUDE_NODES, DEFAULT_DISTANCE_NODES);
+    let mut by_key = BTreeMap::new();
+    for (hash, file) in jobs {
+        let advice = "or render the tables with `atmosim transmittance` (layout = \"sky_model\") and name \
+                      their directory as `transmittance` in the fit settings";
+        let mut job = Job::from_file(Path::new(file)).map_err(|e| {
+            Error::data(
+                file.clone(),
+                format!("the renders' job file, needed for the transmittance tables, cannot be read ({e}); run the fit where the renders were made, {advice}"),
+            )
+        })?;
+        if &job.hash != hash {
+            return Err(Error::data(
+                file.clone(),
+                format!(
+                    "has changed since the renders (job hash {} now, {hash} in the renders); {advice}",
+                    job.hash
+                ),
+            ));
+        }
+        if (job.wavelengths_nm.len() != wavelengths_nm.len())
+            || job
+                .wavelengths_nm
+                .iter()
+                .zip(wavelengths_nm)
+                .any(|(a, b)| (a - b).abs() > 1e-9)
+        {
+            return Err(Error::data(
+                file.clone(),
+                format!(
+                    "wavelengths {:?}, the renders' channels are {wavelengths_nm:?}",
+                    job.wavelengths_nm
+                ),
+            ));
+        }
+        job.transmittance = TransmittanceSpec {
+            grid: Grid::sky_model_runtime(n_a, n_d),
+            estimator: Estimator::Analytic,
+            samples: DEFAULT_SAMPLES,
+            export_sqrt: false,
+        };
+        for (task, _) in job.transmittance_tasks() {
+            let visibility = task.atmosphere.visibility.map_or(0.0, |v| v.ground_km);
+            let key = (visibility.to_bits(), (task.observer_altitude_km * 1000.0).to_bits());
+            if by_key.contains_key(&key) {
+                continue;
+            }
+            let table = crate::transport::table_build::transmittance_table(&job, task);
+            let t = table.t.iter().map(|c| to_node_order(c, n_a, n_d)).collect();
+            let blocked: Vec<f64> = table.blocked.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+            let blocked = to_node_order(&blocked, n_a, n_d).iter().map(|&b| b > 0.5).collect();
+            by_key.insert(key, Table::new(t, blocked));
+        }
+    }
+    Ok(Tables {
+        by_key,
+        n_a,
+        n_d,
+        source: format!("computed from the render jobs (layout sky_model, {n_a} x {n_d} nodes, analytic)"),
+    })
+}
+
+/// Reads every table under `dir`; `wavelengths_nm` are the radiance
+/// part's channel centres, which the tables must have.
+pub fn read(dir: &Path, wavelengths_nm: &[f64]) -> Result<Tables> {
     let mut paths: Vec<PathBuf> = if dir.join(TABLE_FILE).is_file() {
         vec![dir.join(TABLE_FILE)]
     } else {
@@ -140,28 +247,14 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
                 .map(|c| &c.samples)
                 .ok_or_else(|| Error::data(&name, format!("no channel `{n}`")))
         };
-        // The EXR's pixel (row i = altitude, column j = distance) goes to
-        // node d·n_a + a, the runtime's order.
-        let reorder = |v: &[f32]| -> Vec<f64> {
-            let mut out = vec![0.0; n_a * n_d];
-            for i in 0..n_a {
-                for j in 0..n_d {
-                    out[j * n_a + i] = v[i * n_d + j] as f64;
-                }
-            }
-            out
-        };
+        let reorder = |v: &[f32]| to_node_order(&v.iter().map(|&x| f64::from(x)).collect::<Vec<_>>(), n_a, n_d);
         let blocked: Vec<bool> = reorder(channel("blocked")?).iter().map(|&b| b > 0.5).collect();
         let mut t = Vec::new();
         for &lambda in wavelengths_nm {
             t.push(reorder(channel(&format!("{}.T", wavelength_label(lambda)))?));
         }
-        let sqrt_t = t
-            .iter()
-            .map(|c| c.iter().map(|&x| x.max(0.0).sqrt()).collect())
-            .collect();
         let key = (visibility.to_bits(), (altitude_km * 1000.0).to_bits());
-        if tables.insert(key, Table { sqrt_t, t, blocked }).is_some() {
+        if tables.insert(key, Table::new(t, blocked)).is_some() {
             return Err(Error::data(
                 &name,
                 format!("a second table of visibility {visibility} km, observer {altitude_km} km"),
@@ -169,8 +262,20 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
         }
     }
     let (n_a, n_d) = layout.expect("at least one table");
-    let mut visibilities: Vec<f64> = tables.keys().map(|k| f64::from_bits(k.0)).collect();
-    let mut altitudes_m: Vec<f64> = tables.keys().map(|k| f64::from_bits(k.1)).collect();
+    Ok(Tables {
+        by_key: tables,
+        n_a,
+        n_d,
+        source: dir.display().to_string(),
+    })
+}
+
+/// Fits `tables` with rank `rank` per observer altitude for the channels
+/// `wavelengths_nm`.
+pub fn fit(tables: &Tables, wavelengths_nm: &[f64], rank: usize) -> Result<TransmittanceResult> {
+    let (n_a, n_d) = (tables.n_a, tables.n_d);
+    let mut visibilities: Vec<f64> = tables.by_key.keys().map(|k| f64::from_bits(k.0)).collect();
+    let mut altitudes_m: Vec<f64> = tables.by_key.keys().map(|k| f64::from_bits(k.1)).collect();
     for v in [&mut visibilities, &mut altitudes_m] {
         v.sort_by(f64::total_cmp);
         v.dedup();
@@ -187,9 +292,9 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
         // Columns: (visibility, channel); rows: nodes.
         let mut m = vec![0.0; nodes * configs];
         for (vi, &vis) in visibilities.iter().enumerate() {
-            let table = tables.get(&(vis.to_bits(), alt.to_bits())).ok_or_else(|| {
+            let table = tables.by_key.get(&(vis.to_bits(), alt.to_bits())).ok_or_else(|| {
                 Error::data(
-                    dir.display().to_string(),
+                    tables.source.clone(),
                     format!(
                         "no table of visibility {vis} km for observer {} km: the tables must cover every pair",
                         alt / 1000.0
@@ -224,7 +329,7 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
         // The error at the nodes, as the runtime reconstructs them from
         // the file's f32 values.
         for (vi, &vis) in visibilities.iter().enumerate() {
-            let table = &tables[&(vis.to_bits(), alt.to_bits())];
+            let table = &tables.by_key[&(vis.to_bits(), alt.to_bits())];
             for c in 0..channels {
                 for node in (0..nodes).filter(|&k| !table.blocked[k]) {
                     let s: f64 = (0..rank)
@@ -252,5 +357,6 @@ pub fn fit(dir: &Path, wavelengths_nm: &[f64], rank: usize) -> Result<Transmitta
         max_abs_error,
         explained,
         filled,
+        source: tables.source.clone(),
     })
 }
