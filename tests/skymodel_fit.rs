@@ -256,6 +256,50 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
         worst_half < 3.0 * 2f64.powi(-11),
         "half-float loss {worst_half:e} of the peak"
     );
+    // The fit's own figure of that loss, per image in the figures file: an
+    // error below 3·2⁻¹¹ of the peak everywhere is an SNR above
+    // 20·log10(2¹¹/3) = 56.7 dB against the peak, and this sky's rms is
+    // above a fifth of its peak (G ≥ 0.2, F ≥ 1), so at least 42.7 dB;
+    // and halves are not exact, so it is finite.
+    let figures = std::fs::read_to_string(root.join("sky.dat.fit.csv")).unwrap();
+    let header: Vec<&str> = figures.lines().next().unwrap().split(',').collect();
+    let at = header
+        .iter()
+        .position(|&c| c == "half_float_snr_db")
+        .expect("a half_float_snr_db column");
+    for row in figures.lines().skip(1) {
+        let snr: f64 = row.split(',').nth(at).unwrap().parse().unwrap();
+        assert!(snr > 42.7 && snr.is_finite(), "half-float SNR {snr} dB");
+    }
+    // fit-report with a node's own render as the "between-node" render:
+    // the interpolation is the identity there, so the ratio compares the
+    // dataset's fit (whose cells outside the 10° sky are the 30° sky's
+    // data) with the render's fit alone (a harmonic fill there): the data
+    // must not fit worse than the fill (measured 0.773: the rank is spent
+    // on sky, not on the fill's shape).
+    let out = atmosim()
+        .current_dir(root)
+        .args(["fit-report", "fit.toml", "--mid", "renders/elev10"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = std::fs::read_to_string(root.join("sky.dat.report").join("report.md")).unwrap();
+    assert!(report.contains("loss from half floats"), "{report}");
+    let line = report
+        .lines()
+        .find(|l| l.contains("interpolation ratio"))
+        .expect("an interpolation row");
+    let ratio: f64 = line
+        .rsplit('|')
+        .nth(1)
+        .unwrap()
+        .split('/')
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(ratio > 0.0 && ratio <= 1.0, "{line}");
     // The sky: not exact, because half the (γ, α) table has no data and
     // the rank truncation spends some of its rank on the fill there. The
     // error is largest next to the sun at the edge of the valid region;

@@ -6,16 +6,19 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use atmosim::io::atomic::write_atomic;
+use atmosim::physics::solar::SolarSpectrum;
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::grid::{GridFit, fit_grid, provenance};
 use atmosim::skymodel::fit::renders;
 use atmosim::skymodel::fit::settings::FitSettings;
+use atmosim::skymodel::report::half_loss::half_float_snr_db;
+use atmosim::skymodel::runtime::Model;
 
 use super::common::thread_pool;
 
 #[derive(clap::Args)]
 pub struct FitArgs {
-    /// Fit settings (TOML): `renders`, `transmittance` and `out` (see README).
+    /// Fit settings (TOML): `renders`, `out` and optionally `transmittance` (see README).
     settings: PathBuf,
     /// Worker threads (0 or absent: one per available core).
     #[arg(long)]
@@ -75,10 +78,16 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     let fit = pool.install(|| fit_grid(&settings, &grid, &progress))?;
     let name = settings.out.display().to_string();
     let dataset = Dataset::encode(&fit.fit, &name)?;
+    let half_snr = {
+        let solar = SolarSpectrum::kurucz()?;
+        let halves = Model::new(&name, dataset.clone(), solar.clone())?;
+        let unrounded = Model::new(&name, Dataset::unrounded(&fit.fit, &name)?, solar)?;
+        pool.install(|| half_float_snr_db(&halves, &unrounded, &grid, HALF_LOSS_WIDTH))
+    };
     dataset.write(&settings.out)?;
     let (toml, csv) = sidecars(&settings.out);
     write_atomic(&toml, provenance(&settings, &grid, &fit, &settings.out).as_bytes())?;
-    write_atomic(&csv, stats_csv(&fit).as_bytes())?;
+    write_atomic(&csv, stats_csv(&fit, &half_snr).as_bytes())?;
     let wall = start.elapsed().as_secs_f64();
     let min_explained = fit
         .images
@@ -99,11 +108,17 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One row per image: its configuration, κ and the explained variance by rank.
-fn stats_csv(fit: &GridFit) -> String {
+/// The width of the sphere on which the halves' loss is measured (a
+/// pixel of 2.8°).
+const HALF_LOSS_WIDTH: usize = 128;
+
+/// One row per image: its configuration, κ, the SNR of the written
+/// dataset against its unrounded fit (the halves' loss), and the explained
+/// variance by rank.
+fn stats_csv(fit: &GridFit, half_snr_db: &[f64]) -> String {
     let ranks = fit.images.first().map_or(0, |i| i.explained.len());
     let pol_ranks = fit.images.first().map_or(0, |i| i.polarisation_explained.len());
-    let mut s = String::from("visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,kappa");
+    let mut s = String::from("visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,kappa,half_float_snr_db");
     for r in 1..=ranks {
         s.push_str(&format!(",explained_r{r}"));
     }
@@ -111,9 +126,9 @@ fn stats_csv(fit: &GridFit) -> String {
         s.push_str(&format!(",pol_explained_r{r}"));
     }
     s.push('\n');
-    for i in &fit.images {
+    for (i, snr) in fit.images.iter().zip(half_snr_db) {
         s.push_str(&format!(
-            "{},{},{},{},{},{:.6}",
+            "{},{},{},{},{},{:.6},{snr:.3}",
             i.visibility_km, i.albedo, i.altitude_m, i.elevation_deg, i.wavelength_nm, i.kappa
         ));
         for e in i.explained.iter().chain(&i.polarisation_explained) {

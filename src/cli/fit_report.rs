@@ -71,6 +71,13 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
     let (provenance, figures) = sidecars(&settings.out);
     if let Ok(text) = std::fs::read_to_string(&figures) {
         extras.explained = explained_by_rank(&text);
+        let half = column(&text, |c| c == "half_float_snr_db").pop().map(|(_, v)| v);
+        extras.half_float_snr_db = half.filter(|v| !v.is_empty()).map(|v| {
+            (
+                v.iter().sum::<f64>() / v.len() as f64,
+                v.iter().fold(f64::INFINITY, |m, &x| m.min(x)),
+            )
+        });
     }
     if let Ok(text) = std::fs::read_to_string(&provenance) {
         let value = |k: &str| {
@@ -110,28 +117,30 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// (rank, mean, minimum) of the `explained_r<k>` columns of a fit's figures.
-fn explained_by_rank(csv: &str) -> Vec<(usize, f64, f64)> {
+/// The columns of a fit's figures whose header `pick`s, each as (header,
+/// values).
+fn column<'a>(csv: &'a str, pick: impl Fn(&str) -> bool) -> Vec<(&'a str, Vec<f64>)> {
     let mut lines = csv.lines();
     let Some(header) = lines.next() else { return Vec::new() };
-    let columns: Vec<(usize, usize)> = header
-        .split(',')
-        .enumerate()
-        .filter_map(|(i, c)| {
-            c.strip_prefix("explained_r")
-                .and_then(|r| r.parse().ok())
-                .map(|r| (i, r))
-        })
-        .collect();
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect())
         .collect();
-    columns
-        .iter()
-        .map(|&(i, r)| {
-            let v: Vec<f64> = rows.iter().filter_map(|row| row.get(i).copied()).collect();
+    header
+        .split(',')
+        .enumerate()
+        .filter(|(_, c)| pick(c))
+        .map(|(i, c)| (c, rows.iter().filter_map(|row| row.get(i).copied()).collect()))
+        .collect()
+}
+
+/// (rank, mean, minimum) of the `explained_r<k>` columns of a fit's figures.
+fn explained_by_rank(csv: &str) -> Vec<(usize, f64, f64)> {
+    column(csv, |c| c.starts_with("explained_r"))
+        .into_iter()
+        .filter_map(|(c, v)| {
+            let r: usize = c.strip_prefix("explained_r")?.parse().ok()?;
             let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-            (r, mean, v.iter().fold(1.0f64, |m, &x| m.min(x)))
+            Some((r, mean, v.iter().fold(1.0f64, |m, &x| m.min(x))))
         })
         .collect()
 }

@@ -292,7 +292,7 @@ impl Dataset {
         let polarisation = fit.polarisation.as_ref().map(|p| encode_polarisation(p, axes));
         let dataset = Dataset {
             axes: axes.clone(),
-            radiance: encode_radiance(&fit.radiance, axes).map_err(err)?,
+            radiance: encode_radiance(&fit.radiance, axes, Rounding::Halves).map_err(err)?,
             transmittance: encode_transmittance(&fit.transmittance).map_err(err)?,
             polarisation: polarisation.transpose().map_err(err)?,
         };
@@ -300,6 +300,26 @@ impl Dataset {
         dataset.check(name)?;
         Ok(dataset)
     }
+
+    /// [`Dataset::encode`] with the radiance kept in `f32` instead of
+    /// halves: not a dataset the format can hold, but the fit as the
+    /// runtime would evaluate it without the halves' rounding, to measure
+    /// what the rounding costs.
+    pub fn unrounded(fit: &DatasetFit, name: &str) -> Result<Dataset> {
+        let mut dataset = Self::encode(fit, name)?;
+        dataset.radiance =
+            encode_radiance(&fit.radiance, &fit.axes, Rounding::Single).map_err(|m| Error::data(name, m))?;
+        Ok(dataset)
+    }
+}
+
+/// How the radiance's values are stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Rounding {
+    /// IEEE halves, as the file holds them (zenith values scaled first).
+    Halves,
+    /// `f32`, for comparison only.
+    Single,
 }
 
 impl Dataset {
@@ -485,7 +505,13 @@ fn check_component(c: &ComponentFit, n_sun: usize, n_zenith: usize) -> Result<()
     Ok(())
 }
 
-fn encode_radiance(fit: &RadianceFit, axes: &Axes) -> Result<Radiance, String> {
+fn encode_radiance(fit: &RadianceFit, axes: &Axes, rounding: Rounding) -> Result<Radiance, String> {
+    let store = |x: f64| -> Result<f32, String> {
+        match rounding {
+            Rounding::Halves => to_half(x).map(|h| h.to_f32()),
+            Rounding::Single => to_f32(x),
+        }
+    };
     check_breaks("sunBreaks", &fit.sun_breaks)?;
     check_breaks("zenithBreaks", &fit.zenith_breaks)?;
     check_breaks("emphBreaks", &fit.emph_breaks)?;
@@ -504,14 +530,18 @@ fn encode_radiance(fit: &RadianceFit, axes: &Axes) -> Result<Radiance, String> {
             let at = |e: String| format!("radiance of {}, rank component {k}: {e}", axes.describe(config));
             check_component(comp, fit.sun_breaks.len(), fit.zenith_breaks.len()).map_err(at)?;
             for &x in &comp.sun {
-                out.coefs
-                    .push(to_half(x).map_err(|e| at(format!("sun value {e}")))?.to_f32());
+                out.coefs.push(store(x).map_err(|e| at(format!("sun value {e}")))?);
             }
             let scale = zenith_scale(&comp.zenith).map_err(at)?;
             out.zenith_scales.push(scale);
             for &z in &comp.zenith {
-                let h = to_half(z * scale).map_err(|e| at(format!("scaled zenith value {e}")))?;
-                out.coefs.push(decode_zenith(h, scale).map_err(at)?);
+                out.coefs.push(match rounding {
+                    Rounding::Halves => {
+                        let h = to_half(z * scale).map_err(|e| at(format!("scaled zenith value {e}")))?;
+                        decode_zenith(h, scale).map_err(at)?
+                    }
+                    Rounding::Single => to_f32(z).map_err(|e| at(format!("zenith value {e}")))?,
+                });
             }
         }
         let at = |e: String| format!("radiance of {}: {e}", axes.describe(config));
@@ -523,8 +553,7 @@ fn encode_radiance(fit: &RadianceFit, axes: &Axes) -> Result<Radiance, String> {
             )));
         }
         for &x in &c.emph {
-            out.coefs
-                .push(to_half(x).map_err(|e| at(format!("emphasis value {e}")))?.to_f32());
+            out.coefs.push(store(x).map_err(|e| at(format!("emphasis value {e}")))?);
         }
     }
     Ok(out)

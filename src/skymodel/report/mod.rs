@@ -8,6 +8,7 @@
 //! nodes; written as Markdown.
 
 pub mod boxplot;
+pub mod half_loss;
 pub mod interpolation;
 pub mod score;
 pub mod transmittance_check;
@@ -33,6 +34,9 @@ pub struct ReportExtras {
     pub explained: Vec<(usize, f64, f64)>,
     pub dataset: String,
     pub core_seconds_per_image: Option<f64>,
+    /// The halves' loss: the SNR of the written dataset against its
+    /// unrounded fit, (mean, minimum) over the images, in dB.
+    pub half_float_snr_db: Option<(f64, f64)>,
 }
 
 /// Summary figures of the scores: (mean, minimum, median) of the SNR.
@@ -89,6 +93,11 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             ratios.len(),
             f[2],
             f[4]
+        ));
+    }
+    if let Some((mean, min)) = extras.half_float_snr_db {
+        md.push_str(&format!(
+            "| loss from half floats: SNR of the dataset against its unrounded fit, mean / minimum | {mean:.2} / {min:.2} dB |\n"
         ));
     }
     if let Some(s) = extras.core_seconds_per_image {
