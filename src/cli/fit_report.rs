@@ -119,7 +119,7 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
 
 /// The columns of a fit's figures whose header `pick`s, each as (header,
 /// values).
-fn column<'a>(csv: &'a str, pick: impl Fn(&str) -> bool) -> Vec<(&'a str, Vec<f64>)> {
+fn column(csv: &str, pick: impl Fn(&str) -> bool) -> Vec<(&str, Vec<f64>)> {
     let mut lines = csv.lines();
     let Some(header) = lines.next() else { return Vec::new() };
     let rows: Vec<Vec<f64>> = lines
