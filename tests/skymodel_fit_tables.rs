@@ -1,8 +1,11 @@
-//! `atmosim fit` without a `transmittance` directory computes the tables
-//! itself from the render job the renders name: the dataset's transmittance
-//! part must be the one a fit of `atmosim transmittance`'s own tables
-//! (layout "sky_model", the default 32 × 64 nodes) gives, and a job file
-//! that is gone is refused before any image is fitted.
+//! `atmosim fit` on a real (tiny) render job:
+//! - without a `transmittance` directory it computes the tables itself from
+//!   the render job the renders name: the dataset's transmittance part must
+//!   be the one a fit of `atmosim transmittance`'s own tables (layout
+//!   "sky_model", the default 32 × 64 nodes) gives, and a job file that is
+//!   gone is refused before any image is fitted;
+//! - fitted in shards (`--shard K/N`) and joined (`--combine`), the grid
+//!   gives the very bytes of the fit in one go.
 
 mod common;
 
@@ -20,7 +23,7 @@ top_km = 100.0
 profile = "us_standard"
 ozone = "bogumil"
 aerosol = "continental_average"
-visibility_km = 40.0
+visibility_km = [40.0, 90.0]
 
 [spectrum]
 wavelengths_nm = [500.0, 540.0]
@@ -95,6 +98,76 @@ fn sqrt_t(t: &Transmittance) -> Vec<f64> {
         }
     }
     out
+}
+
+/// Renders the tiny job (and its tables) in a fresh directory.
+fn rendered() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::write(root.join("sky.toml"), render_job()).unwrap();
+    std::fs::write(root.join("tables.toml"), tables_job()).unwrap();
+    for args in [["render", "sky.toml", "-q"], ["transmittance", "tables.toml", "-q"]] {
+        let out = run(root, &args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    dir
+}
+
+#[test]
+fn shards_fitted_apart_and_joined_are_the_whole_fit() {
+    let dir = rendered();
+    let root = dir.path();
+    std::fs::write(
+        root.join("fit.toml"),
+        "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"sky.dat\"\nresolution = 61\n",
+    )
+    .unwrap();
+    std::fs::write(
+        root.join("parts.toml"),
+        "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"parts/sky.dat\"\nresolution = 61\n",
+    )
+    .unwrap();
+    let ok = |args: &[&str]| {
+        let out = run(root, args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    ok(&["fit", "fit.toml", "-q"]);
+    // Before every shard is there, --combine refuses and writes nothing.
+    ok(&["fit", "parts.toml", "--shard", "2/2", "-q"]);
+    let out = run(root, &["fit", "parts.toml", "--combine"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing 1"));
+    assert!(!root.join("parts/sky.dat").exists());
+    ok(&["fit", "parts.toml", "--shard", "1/2", "-q"]);
+    ok(&["fit", "parts.toml", "--combine"]);
+    let whole = std::fs::read(root.join("sky.dat")).unwrap();
+    assert_eq!(
+        std::fs::read(root.join("parts/sky.dat")).unwrap(),
+        whole,
+        "joined shards differ from the whole fit"
+    );
+    // The figures: the same rows in the same order.
+    assert_eq!(
+        std::fs::read_to_string(root.join("parts/sky.dat.fit.csv")).unwrap(),
+        std::fs::read_to_string(root.join("sky.dat.fit.csv")).unwrap()
+    );
+    let provenance = std::fs::read_to_string(root.join("parts/sky.dat.toml")).unwrap();
+    assert!(
+        provenance.contains("shards = 2") && provenance.contains("images = 16"),
+        "{provenance}"
+    );
+    // More shards than visibilities: refused.
+    let out = run(root, &["fit", "parts.toml", "--shard", "1/3", "-q"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("at most 2"));
 }
 
 #[test]

@@ -5,8 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use atmosim::Error;
 use atmosim::io::atomic::write_atomic;
 use atmosim::physics::solar::SolarSpectrum;
+use atmosim::run::shard::Shard;
+use atmosim::skymodel::combine::combine;
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::grid::{GridFit, fit_grid, provenance};
 use atmosim::skymodel::fit::renders;
@@ -26,6 +29,15 @@ pub struct FitArgs {
     /// No progress lines on stderr.
     #[arg(long, short)]
     quiet: bool,
+    /// Fit only shard K of N of the grid (a contiguous range of its
+    /// visibilities) into `<out>.shard-KKKK-of-NNNN.dat`; join the shards
+    /// with `--combine`.
+    #[arg(long, value_name = "K/N", conflicts_with = "combine")]
+    shard: Option<Shard>,
+    /// Join the shard datasets `<out>.shard-*-of-NNNN.dat` (every K of one
+    /// N) into `out`, with their figures and provenance.
+    #[arg(long)]
+    combine: bool,
 }
 
 /// The sidecar paths of a dataset: `<out>.toml` and `<out>.fit.csv`.
@@ -40,12 +52,44 @@ pub fn sidecars(out: &Path) -> (PathBuf, PathBuf) {
     )
 }
 
+/// A shard's dataset file: `<out>.shard-KKKK-of-NNNN.dat`.
+fn shard_path(out: &Path, shard: Shard) -> PathBuf {
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    out.with_file_name(format!("{name}.shard-{}.dat", shard.file_stem()))
+}
+
 pub fn run(args: FitArgs) -> anyhow::Result<()> {
     let settings = FitSettings::from_file(&args.settings)?;
-    let grid = renders::scan(&settings.renders)?;
     if let Some(parent) = settings.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
     }
+    if args.combine {
+        return combine_shards(&settings.out);
+    }
+    let full = renders::scan(&settings.renders)?;
+    let (grid, out) = match args.shard {
+        None => (full, settings.out.clone()),
+        Some(shard) => {
+            let n = full.visibilities_km.len();
+            if shard.count as usize > n {
+                return Err(Error::data(
+                    "--shard",
+                    format!(
+                        "{shard}: a shard is a range of visibilities, and the grid has {n} (use at most {n} shards)"
+                    ),
+                )
+                .into());
+            }
+            let r = shard.range(n as u64);
+            (
+                full.visibilities(r.start as usize..r.end as usize),
+                shard_path(&settings.out, shard),
+            )
+        }
+    };
     let configs = grid.configs.len();
     let images = configs * grid.albedos.len() * grid.wavelengths_nm.len();
     if !args.quiet {
@@ -76,7 +120,7 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         }
     };
     let fit = pool.install(|| fit_grid(&settings, &grid, &progress))?;
-    let name = settings.out.display().to_string();
+    let name = out.display().to_string();
     let dataset = Dataset::encode(&fit.fit, &name)?;
     let half_snr = {
         let solar = SolarSpectrum::kurucz()?;
@@ -84,9 +128,9 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         let unrounded = Model::new(&name, Dataset::unrounded(&fit.fit, &name)?, solar)?;
         pool.install(|| half_float_snr_db(&halves, &unrounded, &grid, HALF_LOSS_WIDTH))
     };
-    dataset.write(&settings.out)?;
-    let (toml, csv) = sidecars(&settings.out);
-    write_atomic(&toml, provenance(&settings, &grid, &fit, &settings.out).as_bytes())?;
+    dataset.write(&out)?;
+    let (toml, csv) = sidecars(&out);
+    write_atomic(&toml, provenance(&settings, &grid, &fit, &out).as_bytes())?;
     write_atomic(&csv, stats_csv(&fit, &half_snr).as_bytes())?;
     let wall = start.elapsed().as_secs_f64();
     let min_explained = fit
@@ -97,12 +141,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     println!(
         "{}: {images} images in {wall:.1} s ({:.3} core-seconds per image); explained variance at rank {} ≥ {:.5}; \
          transmittance max |ΔT| at the nodes {:.2e}; {} bytes",
-        settings.out.display(),
+        out.display(),
         fit.image_core_seconds / images as f64,
         settings.rank,
         min_explained,
         fit.transmittance.max_abs_error,
-        std::fs::metadata(&settings.out).map(|m| m.len()).unwrap_or(0)
+        std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0)
     );
     println!("provenance: {}\nper-image figures: {}", toml.display(), csv.display());
     Ok(())
@@ -137,4 +181,120 @@ fn stats_csv(fit: &GridFit, half_snr_db: &[f64]) -> String {
         s.push('\n');
     }
     s
+}
+
+/// `--combine`: the shards of `out` joined into `out`, their figures
+/// concatenated in visibility order, their provenance summed.
+fn combine_shards(out: &Path) -> anyhow::Result<()> {
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let dir = match out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(p) => p.to_path_buf(),
+        None => PathBuf::from("."),
+    };
+    let prefix = format!("{name}.shard-");
+    let mut found: Vec<(Shard, PathBuf)> = std::fs::read_dir(&dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let file = e.file_name().to_string_lossy().to_string();
+            let stem = file.strip_prefix(&prefix)?.strip_suffix(".dat")?;
+            let (k, n) = stem.split_once("-of-")?;
+            let shard = Shard::new(k.parse().ok()?, n.parse().ok()?)?;
+            Some((shard, e.path()))
+        })
+        .collect();
+    found.sort_by_key(|(s, _)| (s.count, s.index));
+    let Some(count) = found.first().map(|(s, _)| s.count) else {
+        return Err(Error::data(
+            out.display().to_string(),
+            format!("no shard files {prefix}K-of-N.dat next to it (fit them with `atmosim fit FIT.toml --shard K/N`)"),
+        )
+        .into());
+    };
+    let missing: Vec<String> = (1..=count)
+        .filter(|&k| !found.iter().any(|(s, _)| s.count == count && s.index == k))
+        .map(|k| k.to_string())
+        .collect();
+    if !missing.is_empty() || found.iter().any(|(s, _)| s.count != count) {
+        return Err(Error::data(
+            out.display().to_string(),
+            format!(
+                "the shards of {count} are incomplete (missing {}) or mixed with shards of another count",
+                if missing.is_empty() {
+                    "none".to_string()
+                } else {
+                    missing.join(", ")
+                }
+            ),
+        )
+        .into());
+    }
+    let mut shards = Vec::new();
+    for (_, path) in &found {
+        shards.push((path.display().to_string(), Dataset::read(path)?));
+    }
+    let joined = combine(&shards)?;
+    // Figures and provenance, read before anything is written.
+    let mut figures = String::new();
+    let mut provenance = String::new();
+    let (mut images, mut core_seconds) = (0.0, 0.0);
+    let mut order: Vec<usize> = (0..shards.len()).collect();
+    order.sort_by(|&a, &b| shards[a].1.axes.visibilities_km[0].total_cmp(&shards[b].1.axes.visibilities_km[0]));
+    for &i in &order {
+        let (toml, csv) = sidecars(&found[i].1);
+        let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or_default();
+        if figures.is_empty() {
+            figures.push_str(header);
+            figures.push('\n');
+        }
+        for l in lines {
+            figures.push_str(l);
+            figures.push('\n');
+        }
+        let text = std::fs::read_to_string(&toml).with_context(|| format!("reading {}", toml.display()))?;
+        let value = |k: &str| {
+            text.lines()
+                .find_map(|l| l.strip_prefix(k).and_then(|r| r.trim_start().strip_prefix('=')))
+                .and_then(|v| v.trim().parse::<f64>().ok())
+                .unwrap_or(0.0)
+        };
+        images += value("images");
+        core_seconds += value("image_core_seconds");
+        if provenance.is_empty() {
+            provenance = text;
+        }
+    }
+    let provenance: String = provenance
+        .lines()
+        .map(|l| {
+            if l.starts_with("images =") {
+                format!("images = {images}\nshards = {count}")
+            } else if l.starts_with("image_core_seconds =") {
+                format!("image_core_seconds = {core_seconds:.3}")
+            } else if l.starts_with("dataset =") {
+                format!("dataset = {:?}", out.display().to_string())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n";
+    joined.write(out)?;
+    let (toml, csv) = sidecars(out);
+    write_atomic(&toml, provenance.as_bytes())?;
+    write_atomic(&csv, figures.as_bytes())?;
+    println!(
+        "{}: {count} shards joined, {} visibilities; provenance {}, figures {}",
+        out.display(),
+        joined.axes.visibilities_km.len(),
+        toml.display(),
+        csv.display()
+    );
+    Ok(())
 }

@@ -10,6 +10,7 @@
 //! - `fit/`: from renders to a dataset, one tested function per step.
 
 pub mod angles;
+pub mod combine;
 pub mod dataset;
 pub mod eval_image;
 pub mod fit;

@@ -77,6 +77,17 @@ impl RenderGrid {
     pub fn config(&self, vis: usize, alt: usize, elev: usize) -> &ConfigRender {
         &self.configs[(vis * self.altitudes_km.len() + alt) * self.elevations_deg.len() + elev]
     }
+
+    /// The grid of the visibilities `range` (indices) alone: a shard of
+    /// the fit.
+    pub fn visibilities(&self, range: std::ops::Range<usize>) -> RenderGrid {
+        let per_visibility = self.altitudes_km.len() * self.elevations_deg.len();
+        RenderGrid {
+            visibilities_km: self.visibilities_km[range.clone()].to_vec(),
+            configs: self.configs[range.start * per_visibility..range.end * per_visibility].to_vec(),
+            ..self.clone()
+        }
+    }
 }
 
 /// One (albedo, channel) image of a configuration, on the sphere.
