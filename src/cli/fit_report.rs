@@ -112,6 +112,10 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
                 "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
                 t.max_abs, t.points, t.worst_at
             );
+            println!(
+                "transmittance |ΔT| {what} the nodes: 99th percentile {:.2e}, mean {:.2e}",
+                t.p99_abs, t.mean_abs
+            );
         }
     }
     Ok(())

@@ -80,8 +80,8 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
     ] {
         if let Some(t) = t {
             md.push_str(&format!(
-                "| transmittance max abs. error {what} the nodes ({} points; largest at {}) | {:.2e} |\n",
-                t.points, t.worst_at, t.max_abs
+                "| transmittance abs. error {what} the nodes, max / 99th percentile / mean ({} points; largest at {}) | {:.2e} / {:.2e} / {:.2e} |\n",
+                t.points, t.worst_at, t.max_abs, t.p99_abs, t.mean_abs
             ));
         }
     }
