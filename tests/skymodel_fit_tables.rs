@@ -218,6 +218,13 @@ fn without_a_table_directory_the_fit_computes_the_render_jobs_tables() {
     let provenance = std::fs::read_to_string(root.join("without.dat.toml")).unwrap();
     assert!(provenance.contains("transmittance_tables"), "{provenance}");
 
+    // fit-report has no table directory to compare with: it quotes the
+    // fit's own figure at the nodes.
+    let out = run(root, &["fit-report", "without.toml"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = std::fs::read_to_string(root.join("without.dat.report/report.md")).unwrap();
+    assert!(report.contains("as the fit measured it"), "{report}");
+
     // With the job file gone, the fit stops before fitting an image, names
     // the file and says what to do instead.
     std::fs::remove_file(root.join("sky.toml")).unwrap();

@@ -12,6 +12,7 @@ use atmosim::skymodel::fit::renders;
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::report::interpolation::interpolation;
 use atmosim::skymodel::report::score::score;
+use atmosim::skymodel::report::transmittance_check::TransmittanceError;
 use atmosim::skymodel::report::{ReportExtras, snr_summary, transmittance_check, write_report};
 use atmosim::skymodel::runtime::Model;
 
@@ -88,6 +89,14 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         if let (Some(s), Some(n)) = (value("image_core_seconds"), value("images")) {
             extras.core_seconds_per_image = Some(s / n);
         }
+        // Tables the fit computed itself are not on disk: its own figure.
+        if let (None, Some(max_abs)) = (&extras.transmittance_on_nodes, value("transmittance_max_abs_error")) {
+            extras.transmittance_on_nodes = Some(TransmittanceError {
+                max_abs,
+                worst_at: "as the fit measured it on the tables it computed".into(),
+                ..Default::default()
+            });
+        }
     }
     write_report(&out, &scores, &extras)?;
     let (mean, min, _) = snr_summary(&scores);
@@ -112,10 +121,12 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
                 "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
                 t.max_abs, t.points, t.worst_at
             );
-            println!(
-                "transmittance |ΔT| {what} the nodes: 99th percentile {:.2e}, mean {:.2e}",
-                t.p99_abs, t.mean_abs
-            );
+            if t.points > 0 {
+                println!(
+                    "transmittance |ΔT| {what} the nodes: 99th percentile {:.2e}, mean {:.2e}",
+                    t.p99_abs, t.mean_abs
+                );
+            }
         }
     }
     Ok(())

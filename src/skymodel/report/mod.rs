@@ -78,7 +78,12 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
         ("on", &extras.transmittance_on_nodes),
         ("off", &extras.transmittance_off_nodes),
     ] {
-        if let Some(t) = t {
+        if let Some(t) = t.as_ref().filter(|t| t.points == 0) {
+            md.push_str(&format!(
+                "| transmittance max abs. error {what} the nodes ({}) | {:.2e} |\n",
+                t.worst_at, t.max_abs
+            ));
+        } else if let Some(t) = t {
             md.push_str(&format!(
                 "| transmittance abs. error {what} the nodes, max / 99th percentile / mean ({} points; largest at {}) | {:.2e} / {:.2e} / {:.2e} |\n",
                 t.points, t.worst_at, t.max_abs, t.p99_abs, t.mean_abs
