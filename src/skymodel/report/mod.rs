@@ -151,7 +151,21 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
         md.push('\n');
     }
     if !extras.interpolation.is_empty() {
-        md.push_str("## Interpolation between nodes\n\n| visibility | albedo | altitude (m) | elevation | channel | rmse(B, I) | rmse(B, F) | ratio |\n|---|---|---|---|---|---|---|---|\n");
+        md.push_str("## Interpolation between nodes\n\nBy sun elevation of the between-node render:\n\n| elevation | images | ratio median | ratio max |\n|---|---|---|---|\n");
+        let mut elevations: Vec<f64> = extras.interpolation.iter().map(|s| s.elevation_deg).collect();
+        elevations.sort_by(f64::total_cmp);
+        elevations.dedup();
+        for e in elevations {
+            let ratios: Vec<f64> = extras
+                .interpolation
+                .iter()
+                .filter(|s| s.elevation_deg == e)
+                .map(InterpolationScore::ratio)
+                .collect();
+            let f = five_numbers(&ratios).unwrap_or([f64::NAN; 5]);
+            md.push_str(&format!("| {e} | {} | {:.3} | {:.3} |\n", ratios.len(), f[2], f[4]));
+        }
+        md.push_str("\nEvery image:\n\n| visibility | albedo | altitude (m) | elevation | channel | rmse(B, I) | rmse(B, F) | ratio |\n|---|---|---|---|---|---|---|---|\n");
         for s in &extras.interpolation {
             md.push_str(&format!(
                 "| {} | {} | {} | {} | {} | {:.4e} | {:.4e} | {:.3} |\n",
