@@ -172,18 +172,8 @@ fn shards_fitted_apart_and_joined_are_the_whole_fit() {
 
 #[test]
 fn without_a_table_directory_the_fit_computes_the_render_jobs_tables() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = rendered();
     let root = dir.path();
-    std::fs::write(root.join("sky.toml"), render_job()).unwrap();
-    std::fs::write(root.join("tables.toml"), tables_job()).unwrap();
-    for args in [["render", "sky.toml", "-q"], ["transmittance", "tables.toml", "-q"]] {
-        let out = run(root, &args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
     std::fs::write(
         root.join("with.toml"),
         "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"with.dat\"\nresolution = 61\n",
