@@ -121,13 +121,33 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<TransmittanceError> {
             "no transmittance table with the dataset's channels",
         ));
     }
-    errors.sort_by(f64::total_cmp);
-    let p99_abs = errors[((errors.len() - 1) as f64 * 0.99).round() as usize];
+    let (p99_abs, mean_abs) = percentile_and_mean(&mut errors, 0.99);
     Ok(TransmittanceError {
         max_abs: worst,
         p99_abs,
-        mean_abs: errors.iter().sum::<f64>() / errors.len() as f64,
+        mean_abs,
         points: count,
         worst_at: at,
     })
+}
+
+/// The `q`-quantile of `values` (the nearest rank, after sorting them in
+/// place) and their mean; `values` must not be empty.
+fn percentile_and_mean(values: &mut [f64], q: f64) -> (f64, f64) {
+    values.sort_by(f64::total_cmp);
+    let at = ((values.len() - 1) as f64 * q).round() as usize;
+    (values[at], values.iter().sum::<f64>() / values.len() as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_99th_percentile_leaves_out_the_largest_hundredth() {
+        // 0, 1, …, 100 shuffled: the 0.99-quantile is 99, the mean 50.
+        let mut v: Vec<f64> = (0..=100).map(|k| ((k * 37) % 101) as f64).collect();
+        assert_eq!(percentile_and_mean(&mut v, 0.99), (99.0, 50.0));
+        assert_eq!(percentile_and_mean(&mut [7.0], 0.99), (7.0, 7.0));
+    }
 }
