@@ -108,6 +108,13 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             }
         );
     }
+    if let Some((below, above)) = grid.horizon_gap() {
+        eprintln!(
+            "warning: the sun elevations jump from {below}° to {above}° with no 0° node: between them the runtime \
+             reads one of the two tables in the other's angles (shadow angle below the horizon, zenith angle above), \
+             so the sky there is wrong; render the 0° elevation too"
+        );
+    }
     let pool = thread_pool(args.threads)?;
     let start = std::time::Instant::now();
     let quiet = args.quiet;

@@ -78,6 +78,27 @@ impl RenderGrid {
         &self.configs[(vis * self.altitudes_km.len() + alt) * self.elevations_deg.len() + elev]
     }
 
+    /// The elevations just below and above the horizon when the grid has
+    /// both but no 0° node. The runtime measures α from the shadow point
+    /// below the horizon and from the zenith above it, and between those
+    /// two nodes reads both tables in the query's α: one of them in the
+    /// other's coordinates.
+    pub fn horizon_gap(&self) -> Option<(f64, f64)> {
+        let below = self
+            .elevations_deg
+            .iter()
+            .copied()
+            .filter(|&e| e < 0.0)
+            .reduce(f64::max)?;
+        let above = self
+            .elevations_deg
+            .iter()
+            .copied()
+            .filter(|&e| e > 0.0)
+            .reduce(f64::min)?;
+        (!self.elevations_deg.contains(&0.0)).then_some((below, above))
+    }
+
     /// The grid of the visibilities `range` (indices) alone: a shard of
     /// the fit.
     pub fn visibilities(&self, range: std::ops::Range<usize>) -> RenderGrid {
