@@ -251,6 +251,24 @@ mod tests {
     use std::f64::consts::{FRAC_PI_2, PI};
     use std::time::Instant;
 
+    /// The table's valid nodes are the parallelogram of a cone axis `zeta`
+    /// half degrees from the sun: |j − ζ| ≤ i ≤ min(j + ζ, 720 − ζ − j)
+    /// (γ = i/2°, α = j/2°).
+    fn assert_parallelogram(t: &AngleTable, zeta: i64) {
+        for j in 0..361i64 {
+            for i in 0..361i64 {
+                let expected = (j - zeta).abs() <= i && i <= (j + zeta).min(720 - zeta - j);
+                assert_eq!(
+                    t.valid[(j * 361 + i) as usize],
+                    expected,
+                    "ζ {zeta}: γ {}°, α {}°",
+                    i as f64 / 2.0,
+                    j as f64 / 2.0
+                );
+            }
+        }
+    }
+
     /// An image whose pixels hold f(γ, α) of their own directions.
     fn image_of(f: impl Fn(GammaAlpha) -> f64, sun_elevation: f64, altitude_m: f64) -> SphereImage {
         let mut img = SphereImage::zeros(1024, 512);
@@ -271,34 +289,11 @@ mod tests {
         // |j − 180| ≤ i ≤ min(j + 180, 540 − j).
         let img = SphereImage::zeros(8, 4);
         for eta in [0.0, -5f64.to_radians(), -0.3] {
-            let t = to_angle_table(&img, eta, 0.0, 361);
-            for j in 0..361i64 {
-                for i in 0..361i64 {
-                    let expected = (j - 180).abs() <= i && i <= (j + 180).min(540 - j);
-                    assert_eq!(
-                        t.valid[(j * 361 + i) as usize],
-                        expected,
-                        "η {eta}: γ {}°, α {}°",
-                        i as f64 / 2.0,
-                        j as f64 / 2.0
-                    );
-                }
-            }
+            assert_parallelogram(&to_angle_table(&img, eta, 0.0, 361), 180);
         }
         // A day sun at η = 20°: the axis is ζ = 70° from the sun.
         let t = to_angle_table(&img, 20f64.to_radians(), 0.0, 361);
-        for j in 0..361i64 {
-            for i in 0..361i64 {
-                let expected = (j - 140).abs() <= i && i <= (j + 140).min(580 - j);
-                assert_eq!(
-                    t.valid[(j * 361 + i) as usize],
-                    expected,
-                    "γ {}°, α {}°",
-                    i as f64 / 2.0,
-                    j as f64 / 2.0
-                );
-            }
-        }
+        assert_parallelogram(&t, 140);
     }
 
     #[test]
@@ -385,18 +380,7 @@ mod tests {
         let eta = -10f64.to_radians();
         let img = SphereImage::zeros(8, 4);
         let t = to_angle_table_on(&img, eta, 0.0, 361, AlphaAxis::Zenith);
-        for j in 0..361i64 {
-            for i in 0..361i64 {
-                let expected = (j - 200).abs() <= i && i <= (j + 200).min(520 - j);
-                assert_eq!(
-                    t.valid[(j * 361 + i) as usize],
-                    expected,
-                    "γ {}°, α {}°",
-                    i as f64 / 2.0,
-                    j as f64 / 2.0
-                );
-            }
-        }
+        assert_parallelogram(&t, 200);
         for h in [0.0, 15_000.0] {
             let cone = Cone::new(1.2, eta, h, AlphaAxis::Zenith);
             let v = cone

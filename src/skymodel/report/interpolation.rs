@@ -4,14 +4,12 @@
 //! and settings as `atmosim fit`, in double precision). 1 means the
 //! interpolation loses nothing over fitting B itself.
 
-use rayon::prelude::*;
-
-use super::score::{compare, evaluated, parameters_at};
+use super::score::{compare, each_image, evaluated, parameters_at};
 use crate::error::Result;
 use crate::skymodel::fit::SphereImage;
 use crate::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
 use crate::skymodel::fit::image_fit::fit_layer;
-use crate::skymodel::fit::renders::{self, RenderGrid};
+use crate::skymodel::fit::renders::RenderGrid;
 use crate::skymodel::fit::settings::FitSettings;
 use crate::skymodel::runtime::Model;
 
@@ -41,51 +39,38 @@ pub fn interpolation(model: &Model, grid: &RenderGrid, settings: &FitSettings) -
         zenith_breaks(settings.zenith_breaks),
         emph_breaks(settings.emph_breaks),
     );
-    let per_config: Vec<Vec<InterpolationScore>> = grid
-        .configs
-        .par_iter()
-        .map(|config| {
-            let layers = renders::load(grid, config)?;
-            Ok(layers
-                .iter()
-                .map(|layer| {
-                    let (interpolated, _) =
-                        evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
-                    let own = fit_layer(
-                        layer,
-                        config.elevation_deg,
-                        config.altitude_km * 1000.0,
-                        settings,
-                        false,
-                    );
-                    let img = &layer.radiance;
-                    let mut fitted = SphereImage::zeros(img.width, img.height);
-                    for j in 0..img.height {
-                        for i in 0..img.width {
-                            let p = parameters_at(img.direction(i, j), config, layer.albedo);
-                            let alpha = if p.elevation < 0.0 { p.shadow } else { p.zero };
-                            let sum: f64 = own
-                                .radiance
-                                .components
-                                .iter()
-                                .map(|c| eval_piecewise(&sb, &c.sun, p.gamma) * eval_piecewise(&zb, &c.zenith, alpha))
-                                .sum();
-                            fitted.values[j * img.width + i] =
-                                (sum * eval_piecewise(&eb, &own.radiance.emph, p.zero)).max(0.0);
-                        }
-                    }
-                    InterpolationScore {
-                        visibility_km: config.visibility_km,
-                        albedo: layer.albedo,
-                        altitude_m: config.altitude_km * 1000.0,
-                        elevation_deg: config.elevation_deg,
-                        wavelength_nm: layer.wavelength_nm,
-                        rmse_interpolated: compare(layer, &interpolated, None).4,
-                        rmse_fit: compare(layer, &fitted, None).4,
-                    }
-                })
-                .collect())
-        })
-        .collect::<Result<_>>()?;
-    Ok(per_config.into_iter().flatten().collect())
+    each_image(grid, |config, layer| {
+        let (interpolated, _) = evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
+        let own = fit_layer(
+            layer,
+            config.elevation_deg,
+            config.altitude_km * 1000.0,
+            settings,
+            false,
+        );
+        let img = &layer.radiance;
+        let mut fitted = SphereImage::zeros(img.width, img.height);
+        for j in 0..img.height {
+            for i in 0..img.width {
+                let p = parameters_at(img.direction(i, j), config, layer.albedo);
+                let alpha = if p.elevation < 0.0 { p.shadow } else { p.zero };
+                let sum: f64 = own
+                    .radiance
+                    .components
+                    .iter()
+                    .map(|c| eval_piecewise(&sb, &c.sun, p.gamma) * eval_piecewise(&zb, &c.zenith, alpha))
+                    .sum();
+                fitted.values[j * img.width + i] = (sum * eval_piecewise(&eb, &own.radiance.emph, p.zero)).max(0.0);
+            }
+        }
+        InterpolationScore {
+            visibility_km: config.visibility_km,
+            albedo: layer.albedo,
+            altitude_m: config.altitude_km * 1000.0,
+            elevation_deg: config.elevation_deg,
+            wavelength_nm: layer.wavelength_nm,
+            rmse_interpolated: compare(layer, &interpolated, None).4,
+            rmse_fit: compare(layer, &fitted, None).4,
+        }
+    })
 }

@@ -125,34 +125,38 @@ pub fn evaluated(
     (f, p)
 }
 
-/// Scores every image of `grid` against `model`, in the grid's order
-/// (configuration, then albedo, then channel).
-pub fn score(model: &Model, grid: &RenderGrid) -> Result<Vec<ImageScore>> {
-    let per_config: Vec<Vec<ImageScore>> = grid
+/// `f` of every image of `grid` (its configuration and layer), in the
+/// grid's order (configuration, then albedo, then channel), each
+/// configuration's images read once, configurations in parallel.
+pub fn each_image<T: Send>(grid: &RenderGrid, f: impl Fn(&ConfigRender, &Layer) -> T + Sync) -> Result<Vec<T>> {
+    let per_config: Vec<Vec<T>> = grid
         .configs
         .par_iter()
         .map(|config| {
             let layers = renders::load(grid, config)?;
-            Ok(layers
-                .iter()
-                .map(|layer| {
-                    let (f, p) = evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
-                    let (snr_db, noise_floor_db, nmae, polarisation_error, rmse) = compare(layer, &f, p.as_ref());
-                    ImageScore {
-                        visibility_km: config.visibility_km,
-                        albedo: layer.albedo,
-                        altitude_m: config.altitude_km * 1000.0,
-                        elevation_deg: config.elevation_deg,
-                        wavelength_nm: layer.wavelength_nm,
-                        snr_db,
-                        noise_floor_db,
-                        nmae,
-                        polarisation_error,
-                        rmse,
-                    }
-                })
-                .collect())
+            Ok(layers.iter().map(|layer| f(config, layer)).collect())
         })
         .collect::<Result<_>>()?;
     Ok(per_config.into_iter().flatten().collect())
+}
+
+/// Scores every image of `grid` against `model`, in the grid's order
+/// (configuration, then albedo, then channel).
+pub fn score(model: &Model, grid: &RenderGrid) -> Result<Vec<ImageScore>> {
+    each_image(grid, |config, layer| {
+        let (f, p) = evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
+        let (snr_db, noise_floor_db, nmae, polarisation_error, rmse) = compare(layer, &f, p.as_ref());
+        ImageScore {
+            visibility_km: config.visibility_km,
+            albedo: layer.albedo,
+            altitude_m: config.altitude_km * 1000.0,
+            elevation_deg: config.elevation_deg,
+            wavelength_nm: layer.wavelength_nm,
+            snr_db,
+            noise_floor_db,
+            nmae,
+            polarisation_error,
+            rmse,
+        }
+    })
 }
