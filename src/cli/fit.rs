@@ -9,11 +9,12 @@ use atmosim::Error;
 use atmosim::io::atomic::write_atomic;
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::run::shard::Shard;
-use atmosim::skymodel::combine::combine;
+use atmosim::skymodel::combine::combine_files;
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::grid::{GridFit, fit_grid, provenance};
 use atmosim::skymodel::fit::renders;
 use atmosim::skymodel::fit::settings::FitSettings;
+use atmosim::skymodel::fit_files::{shard_path, sidecars};
 use atmosim::skymodel::report::half_loss::half_float_snr_db;
 use atmosim::skymodel::runtime::Model;
 
@@ -38,27 +39,6 @@ pub struct FitArgs {
     /// N) into `out`, with their figures and provenance.
     #[arg(long)]
     combine: bool,
-}
-
-/// The sidecar paths of a dataset: `<out>.toml` and `<out>.fit.csv`.
-pub fn sidecars(out: &Path) -> (PathBuf, PathBuf) {
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
-    (
-        out.with_file_name(format!("{name}.toml")),
-        out.with_file_name(format!("{name}.fit.csv")),
-    )
-}
-
-/// A shard's dataset file: `<out>.shard-KKKK-of-NNNN.dat`.
-fn shard_path(out: &Path, shard: Shard) -> PathBuf {
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
-    out.with_file_name(format!("{name}.shard-{}.dat", shard.file_stem()))
 }
 
 pub fn run(args: FitArgs) -> anyhow::Result<()> {
@@ -193,113 +173,16 @@ fn stats_csv(fit: &GridFit, half_snr_db: &[f64]) -> String {
 /// `--combine`: the shards of `out` joined into `out`, their figures
 /// concatenated in visibility order, their provenance summed.
 fn combine_shards(out: &Path) -> anyhow::Result<()> {
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
-    let dir = match out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        Some(p) => p.to_path_buf(),
-        None => PathBuf::from("."),
-    };
-    let prefix = format!("{name}.shard-");
-    let mut found: Vec<(Shard, PathBuf)> = std::fs::read_dir(&dir)
-        .with_context(|| format!("listing {}", dir.display()))?
-        .filter_map(|e| e.ok())
-        .filter_map(|e| {
-            let file = e.file_name().to_string_lossy().to_string();
-            let stem = file.strip_prefix(&prefix)?.strip_suffix(".dat")?;
-            let (k, n) = stem.split_once("-of-")?;
-            let shard = Shard::new(k.parse().ok()?, n.parse().ok()?)?;
-            Some((shard, e.path()))
-        })
-        .collect();
-    found.sort_by_key(|(s, _)| (s.count, s.index));
-    let Some(count) = found.first().map(|(s, _)| s.count) else {
-        return Err(Error::data(
-            out.display().to_string(),
-            format!("no shard files {prefix}K-of-N.dat next to it (fit them with `atmosim fit FIT.toml --shard K/N`)"),
-        )
-        .into());
-    };
-    let missing: Vec<String> = (1..=count)
-        .filter(|&k| !found.iter().any(|(s, _)| s.count == count && s.index == k))
-        .map(|k| k.to_string())
-        .collect();
-    if !missing.is_empty() || found.iter().any(|(s, _)| s.count != count) {
-        return Err(Error::data(
-            out.display().to_string(),
-            format!(
-                "the shards of {count} are incomplete (missing {}) or mixed with shards of another count",
-                if missing.is_empty() {
-                    "none".to_string()
-                } else {
-                    missing.join(", ")
-                }
-            ),
-        )
-        .into());
-    }
-    let mut shards = Vec::new();
-    for (_, path) in &found {
-        shards.push((path.display().to_string(), Dataset::read(path)?));
-    }
-    let joined = combine(&shards)?;
-    // Figures and provenance, read before anything is written.
-    let mut figures = String::new();
-    let mut provenance = String::new();
-    let (mut images, mut core_seconds) = (0.0, 0.0);
-    let mut order: Vec<usize> = (0..shards.len()).collect();
-    order.sort_by(|&a, &b| shards[a].1.axes.visibilities_km[0].total_cmp(&shards[b].1.axes.visibilities_km[0]));
-    for &i in &order {
-        let (toml, csv) = sidecars(&found[i].1);
-        let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
-        let mut lines = text.lines();
-        let header = lines.next().unwrap_or_default();
-        if figures.is_empty() {
-            figures.push_str(header);
-            figures.push('\n');
-        }
-        for l in lines {
-            figures.push_str(l);
-            figures.push('\n');
-        }
-        let text = std::fs::read_to_string(&toml).with_context(|| format!("reading {}", toml.display()))?;
-        let value = |k: &str| {
-            text.lines()
-                .find_map(|l| l.strip_prefix(k).and_then(|r| r.trim_start().strip_prefix('=')))
-                .and_then(|v| v.trim().parse::<f64>().ok())
-                .unwrap_or(0.0)
-        };
-        images += value("images");
-        core_seconds += value("image_core_seconds");
-        if provenance.is_empty() {
-            provenance = text;
-        }
-    }
-    let provenance: String = provenance
-        .lines()
-        .map(|l| {
-            if l.starts_with("images =") {
-                format!("images = {images}\nshards = {count}")
-            } else if l.starts_with("image_core_seconds =") {
-                format!("image_core_seconds = {core_seconds:.3}")
-            } else if l.starts_with("dataset =") {
-                format!("dataset = {:?}", out.display().to_string())
-            } else {
-                l.to_string()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
-        + "\n";
-    joined.write(out)?;
+    let joined = combine_files(out)?;
+    joined.dataset.write(out)?;
     let (toml, csv) = sidecars(out);
-    write_atomic(&toml, provenance.as_bytes())?;
-    write_atomic(&csv, figures.as_bytes())?;
+    write_atomic(&toml, joined.provenance.as_bytes())?;
+    write_atomic(&csv, joined.figures.as_bytes())?;
     println!(
-        "{}: {count} shards joined, {} visibilities; provenance {}, figures {}",
+        "{}: {} shards joined, {} visibilities; provenance {}, figures {}",
         out.display(),
-        joined.axes.visibilities_km.len(),
+        joined.shards,
+        joined.dataset.axes.visibilities_km.len(),
         toml.display(),
         csv.display()
     );

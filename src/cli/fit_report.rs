@@ -17,7 +17,7 @@ use atmosim::skymodel::report::{ReportExtras, snr_summary, transmittance_check, 
 use atmosim::skymodel::runtime::Model;
 
 use super::common::thread_pool;
-use super::fit::sidecars;
+use atmosim::skymodel::fit_files::sidecars;
 
 #[derive(clap::Args)]
 pub struct FitReportArgs {

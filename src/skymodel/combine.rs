@@ -6,8 +6,93 @@
 //! shard fits from the whole set of tables) must be identical, and is
 //! checked to be.
 
+use std::path::Path;
+
 use super::dataset::{Axes, Dataset};
+use super::fit_files::{find_shards, sidecars};
 use crate::error::{Error, Result};
+
+/// A grid's dataset joined from its shard files, with its sidecars' text.
+pub struct Joined {
+    pub dataset: Dataset,
+    /// The number of shards joined.
+    pub shards: u64,
+    /// The first shard's provenance with the summed counts (`<out>.toml`).
+    pub provenance: String,
+    /// The shards' per-image figures in visibility order (`<out>.fit.csv`).
+    pub figures: String,
+}
+
+/// The shards of `out` (`<out>.shard-K-of-N.dat` with their sidecars, every
+/// K of one N) read and joined. Nothing is written: the caller writes the
+/// dataset and [`sidecars`] of `out`.
+pub fn combine_files(out: &Path) -> Result<Joined> {
+    let found = find_shards(out)?;
+    let count = found.first().map_or(0, |(s, _)| s.count);
+    let mut shards = Vec::new();
+    for (_, path) in &found {
+        shards.push((path.display().to_string(), Dataset::read(path)?));
+    }
+    let dataset = combine(&shards)?;
+    let mut order: Vec<usize> = (0..shards.len()).collect();
+    order.sort_by(|&a, &b| shards[a].1.axes.visibilities_km[0].total_cmp(&shards[b].1.axes.visibilities_km[0]));
+    let read = |p: &Path| std::fs::read_to_string(p).map_err(|e| Error::io(p, e));
+    let mut figures = String::new();
+    let mut provenances = Vec::new();
+    for &i in &order {
+        let (toml, csv) = sidecars(&found[i].1);
+        let text = read(&csv)?;
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or_default();
+        if figures.is_empty() {
+            figures.push_str(header);
+            figures.push('\n');
+        }
+        for l in lines {
+            figures.push_str(l);
+            figures.push('\n');
+        }
+        provenances.push(read(&toml)?);
+    }
+    let provenance = joined_provenance(&provenances, out, count);
+    Ok(Joined {
+        dataset,
+        shards: count,
+        provenance,
+        figures,
+    })
+}
+
+/// The first shard's provenance (`texts`, one per shard) with `images` and
+/// `image_core_seconds` summed over all of them, `shards = count` added,
+/// and `dataset` naming `out`.
+fn joined_provenance(texts: &[String], out: &Path, count: u64) -> String {
+    let value = |text: &str, key: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key).and_then(|r| r.trim_start().strip_prefix('=')))
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    let images: u64 = texts.iter().map(|t| value(t, "images") as u64).sum();
+    let core_seconds: f64 = texts.iter().map(|t| value(t, "image_core_seconds")).sum();
+    let first = texts.first().map_or("", |t| t.as_str());
+    first
+        .lines()
+        .map(|l| {
+            if l.starts_with("images =") {
+                format!("images = {images}\nshards = {count}")
+            } else if l.starts_with("image_core_seconds =") {
+                format!("image_core_seconds = {core_seconds:.3}")
+            } else if l.starts_with("dataset =") {
+                format!("dataset = {:?}", out.display().to_string())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n"
+}
 
 /// Joins `shards` ((name, dataset), any order) into one dataset whose
 /// visibilities are theirs in ascending order. Refused: an empty list,
@@ -77,4 +162,25 @@ pub fn combine(shards: &[(String, Dataset)]) -> Result<Dataset> {
     }
     out.check("the combined dataset")?;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn provenance_sums_the_shards_counts() {
+        let shard = |images: u32, secs: f64| {
+            format!(
+                "# header\ndataset = \"g.dat.shard-1\"\nimages = {images}\nimage_core_seconds = {secs:.3}\n\n[settings]\nrank = 9\n"
+            )
+        };
+        let text = joined_provenance(&[shard(66, 90.5), shard(44, 60.25)], Path::new("out/g.dat"), 2);
+        let value: toml::Value = toml::from_str(&text).expect("the joined provenance is TOML");
+        assert_eq!(value["images"].as_integer(), Some(110));
+        assert_eq!(value["shards"].as_integer(), Some(2));
+        assert_eq!(value["image_core_seconds"].as_float(), Some(150.75));
+        assert_eq!(value["dataset"].as_str(), Some("out/g.dat"));
+        assert_eq!(value["settings"]["rank"].as_integer(), Some(9));
+    }
 }

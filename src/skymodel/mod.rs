@@ -7,13 +7,16 @@
 //! - `dataset`: the file format, written and read field by field;
 //! - `runtime`: evaluation with the runtime's semantics (radiance,
 //!   polarisation, transmittance, the sun);
-//! - `fit/`: from renders to a dataset, one tested function per step.
+//! - `fit/`: from renders to a dataset, one tested function per step;
+//! - `fit_files`: the names of a fit's sidecars and shards, and `combine`,
+//!   the shards joined.
 
 pub mod angles;
 pub mod combine;
 pub mod dataset;
 pub mod eval_image;
 pub mod fit;
+pub mod fit_files;
 pub mod queries;
 pub mod report;
 pub mod runtime;
