@@ -23,8 +23,8 @@ use atmosim::skymodel::angles::{SunPosition, ViewAngles};
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
 use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
-use atmosim::skymodel::fit::renders;
 use atmosim::skymodel::fit::settings::FitSettings;
+use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
 use common::atmosim;
 
@@ -194,7 +194,11 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
     let (sb, zb, eb) = (sun_breaks(275), zenith_breaks(205), emph_breaks(118));
     let (mut worst_half, mut worst_truth, mut worst_pol) = (0.0f64, 0.0f64, 0.0f64);
     // Each elevation's tables borrow from the other's, as in the fit.
-    let layers: Vec<_> = grid.configs.iter().map(|c| renders::load(&grid, c).unwrap()).collect();
+    let layers: Vec<_> = grid
+        .configs
+        .iter()
+        .map(|c| render_layers::load(&grid, c).unwrap())
+        .collect();
     let prepared: Vec<Vec<_>> = grid
         .configs
         .iter()

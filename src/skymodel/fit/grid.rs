@@ -11,7 +11,8 @@ use rayon::prelude::*;
 
 use super::breaks::{emph_breaks, sun_breaks, zenith_breaks};
 use super::image_fit::{LayerFit, PreparedLayer, fit_prepared, prepare_layer};
-use super::renders::{self, RenderGrid};
+use super::render_layers;
+use super::renders::RenderGrid;
 use super::settings::FitSettings;
 use super::transmittance::{self, TransmittanceResult};
 use crate::error::Result;
@@ -65,7 +66,7 @@ pub fn fit_grid(settings: &FitSettings, grid: &RenderGrid, done: &(dyn Fn(usize)
             .par_iter()
             .map(|config| {
                 let start = std::time::Instant::now();
-                let layers = renders::load(grid, config)?;
+                let layers = render_layers::load(grid, config)?;
                 let prepared = layers
                     .iter()
                     .map(|layer| {

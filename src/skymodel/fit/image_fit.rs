@@ -30,7 +30,7 @@ use super::decompose::{LowRank, truncated_svd};
 use super::emphasis::pre_emphasis_at;
 use super::laplace;
 use super::neighbours::borrow_from_neighbours;
-use super::renders::Layer;
+use super::render_layers::Layer;
 use super::reproject::{AlphaAxis, fill_invalid, to_angle_table, to_angle_table_on};
 use super::settings::FitSettings;
 use super::smooth::gaussian;

@@ -11,6 +11,7 @@ pub mod grid;
 pub mod image_fit;
 pub mod laplace;
 pub mod neighbours;
+pub mod render_layers;
 pub mod renders;
 pub mod reproject;
 pub mod settings;

@@ -15,7 +15,8 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::skymodel::angles::{SunPosition, ViewAngles};
 use crate::skymodel::fit::SphereImage;
-use crate::skymodel::fit::renders::{self, ConfigRender, Layer, RenderGrid};
+use crate::skymodel::fit::render_layers::{self, Layer};
+use crate::skymodel::fit::renders::{ConfigRender, RenderGrid};
 use crate::skymodel::runtime::{Model, Parameters};
 
 /// The comparison of one image.
@@ -133,7 +134,7 @@ pub fn each_image<T: Send>(grid: &RenderGrid, f: impl Fn(&ConfigRender, &Layer) 
         .configs
         .par_iter()
         .map(|config| {
-            let layers = renders::load(grid, config)?;
+            let layers = render_layers::load(grid, config)?;
             Ok(layers.iter().map(|layer| f(config, layer)).collect())
         })
         .collect::<Result<_>>()?;
