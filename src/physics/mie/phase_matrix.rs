@@ -5,11 +5,12 @@
 //! Convention (CONVENTIONS.md §6 and §11): the scattering-plane frame with e1
 //! in the plane, Θ = 0 forward, normalised so that ½∫₋₁¹ P11 dμ = 1, i.e.
 //! (1/4π)∫P11 dΩ = 1. From the amplitude functions S1, S2 (Bohren & Huffman
-//! Eq. 4.77) P11 ∝ ½(|S2|² + |S1|²), P12 ∝ ½(|S2|² − |S1|²),
-//! P33 ∝ Re(S2·S1*), P34 ∝ Im(S2·S1*): P12 < 0 where the scattered light is
-//! polarised perpendicular to the scattering plane. These are the signs of
-//! libRadtran's tables (Evans' convention for P11, P12, P33, P34), checked
-//! element by element against them in `tests/mie_opac.rs`.
+//! conventions, m = n + ik) P11 ∝ ½(|S2|² + |S1|²), P12 ∝ ½(|S2|² − |S1|²),
+//! P33 ∝ Re(S1·S2*), P34 ∝ Im(S1·S2*): P12 < 0 where the scattered light is
+//! polarised perpendicular to the scattering plane, and P34 has the sign of
+//! libRadtran's tables (the opposite of Bohren & Huffman's S34). These are
+//! the signs of libRadtran's stored P11, P12, P33, P34, checked element by
+//! element against them in `tests/mie_opac.rs`.
 
 /// The four independent elements of a sphere ensemble's phase matrix.
 #[derive(Debug, Clone, PartialEq)]

@@ -60,17 +60,19 @@ pub struct Amplitudes {
 }
 
 impl Amplitudes {
-    /// The four independent scattering-matrix elements of a sphere, BH Eq.
-    /// 4.77, not normalised: [S11, S12, S33, S34] with
-    /// S11 = ½(|S2|² + |S1|²), S12 = ½(|S2|² − |S1|²), S33 = Re(S2·S1*),
-    /// S34 = Im(S2·S1*). In the scattering-plane frame of CONVENTIONS.md §6
-    /// (e1 in the plane, Q = I(e1) − I(e2)) these are the elements P11, P12,
-    /// P33, P34 up to the normalisation; S12 < 0 means polarisation
-    /// perpendicular to the scattering plane, as for Rayleigh scattering.
+    /// The four independent scattering-matrix elements of a sphere, not
+    /// normalised, in atmosim's convention (CONVENTIONS.md §11):
+    /// [S11, S12, S33, S34] with S11 = ½(|S2|² + |S1|²),
+    /// S12 = ½(|S2|² − |S1|²), S33 = Re(S1·S2*) and S34 = Im(S1·S2*).
+    /// S11, S12 and S33 are Bohren & Huffman's Eq. 4.77; S34 has the
+    /// opposite sign of theirs, which is the sign libRadtran (MIEV0, time
+    /// dependence e^(+iωt)) stores and MYSTIC uses. S12 < 0 means
+    /// polarisation perpendicular to the scattering plane, as for Rayleigh
+    /// scattering.
     pub fn matrix_elements(&self) -> [f64; 4] {
         let i1 = self.s1.norm_sqr();
         let i2 = self.s2.norm_sqr();
-        let c = self.s2 * self.s1.conj();
+        let c = self.s1 * self.s2.conj();
         [0.5 * (i2 + i1), 0.5 * (i2 - i1), c.re, c.im]
     }
 }
