@@ -11,11 +11,13 @@
 //! the size parameter x* = Δx/h and x/Δx above it, i.e. nodes uniform in
 //! ln r (step h) for small spheres and uniform in x (step Δx) for large
 //! ones, whose efficiencies oscillate in x with a period of order
-//! π/(n − 1) (the interference structure of van de Hulst). The defaults
-//! h = 0.01 and Δx = 0.05 converge the OPAC components' extinction,
-//! albedo and asymmetry parameter to better than 1e-5 relative: halving
-//! both steps ([`Quadrature::refined`]) changes them by less than that,
-//! shown in the tests. The narrow resonances of weakly absorbing spheres
+//! π/(n − 1) (the interference structure of van de Hulst). Criterion: with
+//! the defaults h = 0.01 and Δx = 0.05, halving both steps
+//! ([`Quadrature::refined`], about twice the nodes) changes extinction,
+//! albedo and asymmetry parameter by less than 1e-4 relative
+//! (`tests/mie_opac.rs`; measured: below 1e-6 for inso, waso, soot and
+//! suso). Coarser steps (h = 0.04, Δx = 0.4) leave errors of up to 1e-3 in
+//! the large-particle components. The narrow resonances of weakly absorbing spheres
 //! (widths far below Δx) are not resolved by any practical grid; averaged
 //! over a distribution their weight is what this sampling error measures.
 

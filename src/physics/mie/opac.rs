@@ -89,7 +89,7 @@ pub fn parse_size_distributions(name: &str, text: &str, component: &str) -> Resu
             density_g_cm3: row[5],
         };
         d.lognormal.validate(&format!("{name}: line {line}"))?;
-        if !(d.density_g_cm3 > 0.0) {
+        if d.density_g_cm3.is_nan() || d.density_g_cm3 <= 0.0 {
             return Err(Error::data(name, format!("line {line}: density must be positive")));
         }
         out.push(d);
