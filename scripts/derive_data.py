@@ -9,6 +9,8 @@ data/ and validation/). Only the standard library is used. The script writes
   atmospheres/afgl/<profile>.txt          AFGL gas profiles, levels ascending
   atmospheres/opac/mixtures/<name>.txt    OPAC mixtures, mass density per component
   atmospheres/opac/components/<c>.txt     OPAC component optics (ext/mass, ssa, g)
+  atmospheres/opac/refractive/<c>.txt     OPAC refractive indices, all humidities of <c>
+  atmospheres/opac/size_distributions.txt OPAC log-normal size distributions (size_distr.cfg)
   spectra/ozone_bogumil.txt               O3 cross-section coefficients (Bogumil 2003)
   spectra/ozone_molina.txt                O3 cross-section coefficients (Molina 1986)
   spectra/solar_kurucz_1nm.txt            Kurucz 1992 solar irradiance, W m-2 nm-1
@@ -41,6 +43,11 @@ MIXTURES = [
 ]
 
 COMPONENTS = ["inso", "waso", "soot", "suso"]
+
+# OPAC component numbers of size_distr.cfg, in order 1..10 (libRadtran's
+# numbering; checked by refractive_and_sizes() against the refractive-index
+# files present and the densities of the optical-property tables).
+ALL_COMPONENTS = ["inso", "waso", "soot", "ssam", "sscm", "minm", "miam", "micm", "mitr", "suso"]
 
 
 def rows(path):
@@ -127,6 +134,55 @@ def components(shared):
         write(f"atmospheres/opac/components/{c}.txt", header, body)
 
 
+def refractive_and_sizes(shared):
+    opac = os.path.join(shared, "data", "opac")
+    cfg = rows(os.path.join(opac, "size_distr.cfg"))
+    humidities = {}
+    for r in cfg:
+        humidities.setdefault(ALL_COMPONENTS[int(r[0]) - 1], []).append(r[1])
+    # The numbering must match the refractive-index files present ...
+    for c, rhs in humidities.items():
+        for rh in rhs:
+            f = os.path.join(opac, "refractive_indices", f"{c}{int(rh):02d}_refr.dat")
+            if not os.path.isfile(f):
+                raise SystemExit(f"size_distr.cfg names {c} at RH {rh} but {f} is missing")
+    # ... and the densities the libRadtran optical-property tables list (rho column).
+    for c in COMPONENTS:
+        src = os.path.join(opac, "optical_properties", f"opac_{c}_optprop.txt")
+        rho = {float(r[1]): float(r[5]) for r in rows(src)}
+        for r in cfg:
+            if ALL_COMPONENTS[int(r[0]) - 1] == c and float(r[1]) in rho:
+                if abs(rho[float(r[1])] - float(r[5])) > 1e-9:
+                    raise SystemExit(f"{c} RH {r[1]}: density {r[5]} in size_distr.cfg, {rho[float(r[1])]} in {src}")
+    header = [
+        "atmosim OPAC log-normal size distributions (Hess, Koepke and Schult 1998, as used by libRadtran)",
+        "source: shared/data/opac/size_distr.cfg (libRadtran's OPAC mie-tool configuration)",
+        "derived by scripts/derive_data.py: rows and numbers unchanged; the density column is in",
+        "g cm-3 (the source's header says g/m**3, but the values, e.g. 2.0 for inso and 1.8 for dry",
+        "waso, are the densities in g cm-3 that the libRadtran optical-property tables list)",
+        "dN/dln r = N / (sqrt(2 pi) ln sigma) exp(-(ln r - ln r_mod)^2 / (2 ln^2 sigma)), r_min <= r <= r_max",
+        "component numbers: " + " ".join(f"{i + 1}={c}" for i, c in enumerate(ALL_COMPONENTS)),
+        "columns: component rh_pct r_min_um r_max_um r_mod_um rho_g_cm-3 sigma",
+    ]
+    write("atmospheres/opac/size_distributions.txt", header, ["  ".join(r) for r in cfg])
+    for c, rhs in humidities.items():
+        body = []
+        for rh in rhs:
+            src = f"{c}{int(rh):02d}_refr.dat"
+            for r in rows(os.path.join(opac, "refractive_indices", src)):
+                body.append("  ".join([r[0], rh, r[1], r[2]]))
+        header = [
+            f"atmosim OPAC refractive index of component '{c}' (Hess, Koepke and Schult 1998)",
+            "source: shared/data/opac/refractive_indices/" + ", ".join(f"{c}{int(rh):02d}_refr.dat" for rh in rhs),
+            "derived by scripts/derive_data.py: the files for each humidity joined, with the humidity",
+            "(from the file name) as the second column; numbers unchanged. As in the source, n_im is",
+            "negative for an absorbing medium (m = n_re + i n_im with time dependence e^(+i omega t));",
+            "atmosim reads k = -n_im >= 0",
+            "columns: wavelength_um rh_pct n_re n_im",
+        ]
+        write(f"atmospheres/opac/refractive/{c}.txt", header, body)
+
+
 def ozone(shared):
     for name, src, t0, ref in [
         ("bogumil", "crs_O3_UBremen_cf.dat", "273.15",
@@ -206,6 +262,7 @@ def main():
     afgl(shared)
     mixtures(shared)
     components(shared)
+    refractive_and_sizes(shared)
     ozone(shared)
     solar(shared)
     libradtran(shared)

@@ -37,6 +37,7 @@ Outputs (relative to the repository root):
   validation/libradtran/uvspec_540nm_sza45.txt
   validation/libradtran/H_540nm_aer_{tau,ssa,gg}.txt
   validation/published/mystic_twilight_620nm.txt
+  validation/opac_mie/optprop.txt, validation/opac_mie/phase_<c>_<wl>nm_rh<rh>.txt
 
 At the end the script runs self-checks (assertions) on what it wrote:
 row counts, physics-based sign checks against an independent single-scattering
@@ -1325,6 +1326,93 @@ def mystic_twilight(shared):
     return rows, out
 
 
+# ---------------------------------------------------------------------------
+# OPAC component optics from libRadtran's mie tool (Mie solver references)
+# ---------------------------------------------------------------------------
+
+# Component numbers as in atmospheres/opac/size_distributions.txt.
+OPAC_NUMBER = {"inso": 1, "waso": 2, "soot": 3, "suso": 10}
+
+
+def opac_mie(shared):
+    """ext/ssa/g and phase matrices of inso, waso, soot, suso (libRadtran mie tool)."""
+    base = "data/opac/optical_properties"
+    out = []
+    comments_all = []
+    for c, num_c in OPAC_NUMBER.items():
+        src = "%s/opac_%s_optprop.txt" % (base, c)
+        comments, rows = read_dat(os.path.join(shared, src))
+        comments_all = comments
+        for r in rows:
+            # wavelength RH ext ssa g rho n_re n_im nmom
+            out.append([str(num_c), keep(r[0]), keep(r[1]), keep(r[2]), keep(r[3]),
+                        keep(r[4]), keep(r[5]), keep(r[6]), keep(r[7])])
+    header = [
+        "OPAC component optical properties per unit mass computed with libRadtran's mie tool "
+        "(MIEV0, OPAC log-normal size distributions and refractive indices, Hess et al. 1998): "
+        "reference for atmosim's Mie solver (src/physics/mie)",
+        "source_file: shared/%s/opac_{inso,waso,soot,suso}_optprop.txt" % base,
+        "derived by %s" % SCRIPT,
+        "conversion: none; the four files joined with a component column "
+        "(1 inso, 2 waso, 3 soot, 10 suso: the numbering of "
+        "atmospheres/opac/size_distributions.txt); the source's nmom_P11 column dropped",
+        "units: ext in km^-1 per (g m^-3) of aerosol mass at that humidity; rho in g cm^-3; "
+        "n_im as the source writes it (negative = absorbing)",
+        "accuracy: as printed (ext 7 digits, ssa and g 6 decimals)",
+    ] + quote_source(comments_all)
+    cols = "component wavelength_nm rh_pct ext ssa g rho_g_cm3 n_re n_im".split()
+    write_table("validation/opac_mie/optprop.txt", header, cols, out,
+                "OPAC inso/waso/soot/suso ext, ssa, g (libRadtran mie)")
+    phases = {}
+    for c in OPAC_NUMBER:
+        rh = "0" if c in ("inso", "soot") else "50"
+        for wl in ("420", "540", "550", "620"):
+            src = "%s/opac_%s_phase_%snm_rh%s.txt" % (base, c, wl, rh)
+            comments = []
+            elems = {}
+            cur = None
+            with open(os.path.join(shared, src), encoding="utf-8") as f:
+                for line in f:
+                    s_ = line.strip()
+                    if not s_:
+                        continue
+                    if s_.startswith("# element P"):
+                        cur = s_.split()[2].rstrip(":")
+                        elems[cur] = []
+                    elif s_.startswith("#"):
+                        comments.append(line.rstrip("\n"))
+                    else:
+                        elems[cur].append(s_.split())
+            names = ["P11", "P12", "P33", "P34"]
+            assert sorted(elems) == names, (src, sorted(elems))
+            grid = [r[0] for r in elems["P11"]]
+            for n in names:
+                assert [r[0] for r in elems[n]] == grid, (src, n)
+            rows = [[keep(grid[i])] + [keep(elems[n][i][1]) for n in names] for i in range(len(grid))]
+            rows.sort(key=lambda r: float(r[0]))
+            header = [
+                "Phase matrix of OPAC %s at %s nm, RH %s %%, computed with libRadtran's mie tool "
+                "(MIEV0) from the OPAC size distribution and refractive index" % (c, wl, rh),
+                "source_file: shared/%s" % src,
+                "derived by %s" % SCRIPT,
+                "conversion: none; the source gives each element on its own angle grid, and the four "
+                "grids are identical, so they are joined as columns and sorted by ascending angle",
+                "convention: scattering-plane frame, theta from the forward direction; P11, P12, P33, "
+                "P34 as libRadtran stores them (Evans), each normalised so that "
+                "0.5*int_{-1}^{1} P11 dmu = 1 (P12..P34 not divided by P11); "
+                "the same as atmosim's (CONVENTIONS.md section 11)",
+                "component: %d" % OPAC_NUMBER[c],
+                "wavelength_nm: %s" % wl,
+                "rh_pct: %s" % rh,
+                "accuracy: as printed (7 significant digits)",
+            ] + quote_source(comments)
+            cols = "theta_deg p11 p12 p33 p34".split()
+            rel = "validation/opac_mie/phase_%s_%snm_rh%s.txt" % (c, wl, rh)
+            write_table(rel, header, cols, rows, "OPAC %s phase matrix %s nm" % (c, wl))
+            phases[rel] = rows
+    return out, phases
+
+
 def main():
     shared = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "..", "shared")
     shared = os.path.abspath(shared)
@@ -1339,6 +1427,7 @@ def main():
     res["pydisort"] = pydisort(shared)
     res["uvspec"], res["h"] = uvspec(shared)
     res["mystic"] = mystic_twilight(shared)
+    res["opac_mie"] = opac_mie(shared)
     report = self_checks(shared, res)
     print("wrote (relative to %s):" % ROOT)
     for rel, (n, what) in WRITTEN.items():

@@ -16,7 +16,7 @@
 //! `fnv` sit at the root, below everything):
 //!
 //! ```text
-//! physics/       constants, Rayleigh, ozone, OPAC aerosol, visibility, gas profiles,
+//! physics/       constants, Rayleigh, ozone, OPAC aerosol, Mie, visibility, gas profiles,
 //!                the solar spectrum, and the embedded data tables they read
 //! geometry/      shells and slabs, rays and their walk, half chords, the sun,
 //!                orthonormal bases

@@ -133,6 +133,27 @@ pub static OPAC_COMPONENTS: &[(&str, &str)] = embedded! {
     "suso" => "atmospheres/opac/components/suso.txt",
 };
 
+/// OPAC refractive indices of all ten components, every tabulated humidity
+/// in one file per component (Hess et al. 1998); input of the Mie solver.
+pub static OPAC_REFRACTIVE: &[(&str, &str)] = embedded! {
+    "inso" => "atmospheres/opac/refractive/inso.txt",
+    "waso" => "atmospheres/opac/refractive/waso.txt",
+    "soot" => "atmospheres/opac/refractive/soot.txt",
+    "ssam" => "atmospheres/opac/refractive/ssam.txt",
+    "sscm" => "atmospheres/opac/refractive/sscm.txt",
+    "minm" => "atmospheres/opac/refractive/minm.txt",
+    "miam" => "atmospheres/opac/refractive/miam.txt",
+    "micm" => "atmospheres/opac/refractive/micm.txt",
+    "mitr" => "atmospheres/opac/refractive/mitr.txt",
+    "suso" => "atmospheres/opac/refractive/suso.txt",
+};
+
+/// OPAC log-normal size distributions of all components and humidities.
+pub static OPAC_SIZE_DISTRIBUTIONS: &str = include_str!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/atmospheres/opac/size_distributions.txt"
+));
+
 /// Ozone cross-section tables.
 pub static OZONE_CROSS_SECTIONS: &[(&str, &str)] = embedded! {
     "bogumil" => "spectra/ozone_bogumil.txt",
@@ -150,6 +171,15 @@ pub fn builtin(set: &'static [(&'static str, &'static str)], name: &str) -> Opti
 /// The names of a built-in set, for error messages.
 pub fn names(set: &[(&str, &str)]) -> String {
     set.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+}
+
+/// The 1-based line numbers of a table text's data rows, in the order of
+/// [`Table::rows`], for errors that name the line of a row.
+pub fn row_lines(text: &str) -> impl Iterator<Item = usize> + '_ {
+    text.lines().enumerate().filter_map(|(i, l)| {
+        let s = l.trim();
+        (!s.is_empty() && !s.starts_with('#')).then_some(i + 1)
+    })
 }
 
 /// Linear interpolation in a table with ascending abscissae `x`; `None`
@@ -208,11 +238,18 @@ mod tests {
 
     #[test]
     fn every_builtin_table_parses() {
-        for set in [AFGL_PROFILES, OPAC_MIXTURES, OPAC_COMPONENTS, OZONE_CROSS_SECTIONS] {
+        for set in [
+            AFGL_PROFILES,
+            OPAC_MIXTURES,
+            OPAC_COMPONENTS,
+            OPAC_REFRACTIVE,
+            OZONE_CROSS_SECTIONS,
+        ] {
             for (name, text) in set {
                 Table::parse(name, text, 0).unwrap();
             }
         }
         Table::parse("kurucz", SOLAR_KURUCZ, 2).unwrap();
+        Table::parse("size_distributions", OPAC_SIZE_DISTRIBUTIONS, 7).unwrap();
     }
 }

@@ -5,6 +5,7 @@
 pub mod aerosol;
 pub mod constants;
 pub mod data;
+pub mod mie;
 pub mod ozone;
 pub mod profile;
 pub mod rayleigh;
