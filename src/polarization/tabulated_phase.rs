@@ -35,6 +35,11 @@
 //! [`PhaseMatrix`] (its (4, 3) element is −P34). No sign is changed; the
 //! Rayleigh limit of a tiny sphere (P34 → 0, P12 → −¾ sin²Θ) and the
 //! identity of the P34 element with the Mie table's are pinned by tests.
+//!
+//! (About 300 lines without its unit tests, which check sampling by χ²,
+//! the normalisation and mean cosine by exact quadrature, Henyey–Greenstein
+//! tables against analytic error bounds, and the Rayleigh limit of the Mie
+//! solver.)
 
 use std::f64::consts::PI;
 
@@ -367,7 +372,13 @@ mod tests {
     /// The tables the sampling tests run on: forward-peaked (a real Mie
     /// table, HG g = 0.9), backward-structured (a water sphere of x = 15 with
     /// its glory and rainbow ripples; HG g = −0.7), with their names.
-    fn test_tables() -> Vec<(String, TabulatedPhaseMatrix)> {
+    /// Computed once (the waso table takes seconds) and shared by the tests.
+    fn test_tables() -> &'static [(String, TabulatedPhaseMatrix)] {
+        static TABLES: std::sync::OnceLock<Vec<(String, TabulatedPhaseMatrix)>> = std::sync::OnceLock::new();
+        TABLES.get_or_init(build_test_tables)
+    }
+
+    fn build_test_tables() -> Vec<(String, TabulatedPhaseMatrix)> {
         let grid = default_angles_deg();
         let waso = TabulatedPhaseMatrix::from_mie("waso 50 % 550 nm", &waso_table()).unwrap();
         let water = sphere_table(15.0, Complex64::new(1.33, 0.0), &grid);
@@ -507,13 +518,13 @@ mod tests {
     fn inverse_cdf_roundtrip() {
         // The sampler inverts the independently written CDF to rounding.
         for (name, t) in test_tables() {
-            let cdf = TestCdf::new(&t);
+            let cdf = TestCdf::new(t);
             let mut worst = 0.0f64;
             for k in 0..=20_000 {
                 let u = k as f64 / 20_000.0;
                 let mu = t.sample([u, 0.5]).cos_theta;
                 assert!((-1.0..=1.0).contains(&mu), "{name}: {mu}");
-                worst = worst.max((cdf.at(&t, mu) - u).abs());
+                worst = worst.max((cdf.at(t, mu) - u).abs());
             }
             assert!(worst < 1e-12, "{name}: F(F⁻¹(u)) off by {worst}");
         }
@@ -724,7 +735,9 @@ mod tests {
         let a = [0.0, 90.0, 180.0];
         let p = [1.0, 1.0, 1.0];
         let z = [0.0; 3];
-        let cases: Vec<(Vec<f64>, Vec<f64>, Vec<f64>, &str)> = vec![
+        /// Angles, P11, P12 and the text the error must contain.
+        type Case = (Vec<f64>, Vec<f64>, Vec<f64>, &'static str);
+        let cases: Vec<Case> = vec![
             (vec![0.0], vec![1.0], vec![0.0], "at least 2"),
             (a.to_vec(), vec![1.0, 1.0], z.to_vec(), "P11 has 2 values for 3"),
             (a.to_vec(), p.to_vec(), vec![0.0, 0.0], "P12 has 2 values"),
