@@ -1,6 +1,7 @@
-//! Polarisation: Stokes vectors, Mueller and phase matrices, and the frames
-//! Stokes vectors are given in.
+//! Polarisation: Stokes vectors, Mueller and phase matrices (closed-form and
+//! tabulated), and the frames Stokes vectors are given in.
 
 pub mod phase;
 pub mod stokes;
 pub mod stokes_frame;
+pub mod tabulated_phase;

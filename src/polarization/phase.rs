@@ -136,11 +136,22 @@ impl PhaseFunction {
     /// scattering-plane frame that [`PhaseFunction::mueller`] refers to).
     pub fn sample_direction(&self, k_in: DVec3, u: [f64; 2]) -> (DVec3, PhaseSample) {
         let sample = self.sample(u);
+        (sample.direction(k_in), sample)
+    }
+}
+
+impl PhaseSample {
+    /// The outgoing propagation direction of this sample for a photon
+    /// travelling along the unit vector `k_in`: with `(b1, b2) =`
+    /// [`orthonormal_basis`]`(k_in)`, `sin Θ (cos φ·b1 + sin φ·b2) + cos Θ·k_in`
+    /// (see [`PhaseFunction::sample_direction`]). Shared by every phase
+    /// function so that all of them use one azimuth reference.
+    pub fn direction(&self, k_in: DVec3) -> DVec3 {
         let (b1, b2) = orthonormal_basis(k_in);
-        let sin_theta = (1.0 - sample.cos_theta * sample.cos_theta).max(0.0).sqrt();
-        let (sin_phi, cos_phi) = sample.phi.sin_cos();
-        let k_out = sin_theta * (cos_phi * b1 + sin_phi * b2) + sample.cos_theta * k_in;
-        (k_out.normalize(), sample)
+        let sin_theta = (1.0 - self.cos_theta * self.cos_theta).max(0.0).sqrt();
+        let (sin_phi, cos_phi) = self.phi.sin_cos();
+        let k_out = sin_theta * (cos_phi * b1 + sin_phi * b2) + self.cos_theta * k_in;
+        k_out.normalize()
     }
 }
 
