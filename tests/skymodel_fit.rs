@@ -26,7 +26,7 @@ use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
-use common::atmosim;
+use common::{atmosim, run_ok};
 
 const WAVELENGTHS: [f64; 2] = [500.0, 600.0];
 const ELEVATIONS: [f64; 2] = [10.0, 30.0];
@@ -174,12 +174,7 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
     let fit_toml = "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"sky.dat\"\nblur_sigma = 0.0\n\
                     transmittance_rank = 2\n";
     std::fs::write(root.join("fit.toml"), fit_toml).unwrap();
-    let out = atmosim()
-        .current_dir(root)
-        .args(["fit", "fit.toml", "-q"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    run_ok(root, &["fit", "fit.toml", "-q"]);
     assert!(root.join("sky.dat.toml").is_file() && root.join("sky.dat.fit.csv").is_file());
 
     let dataset = Dataset::read(&root.join("sky.dat")).unwrap();

@@ -12,7 +12,7 @@ mod common;
 use std::path::Path;
 
 use atmosim::skymodel::dataset::{Dataset, Transmittance};
-use common::atmosim;
+use common::{atmosim, run_ok};
 
 /// A tiny render job and the transmittance job of the same atmosphere.
 const ATMOSPHERE: &str = r#"[planet]
@@ -107,12 +107,7 @@ fn rendered() -> tempfile::TempDir {
     std::fs::write(root.join("sky.toml"), render_job()).unwrap();
     std::fs::write(root.join("tables.toml"), tables_job()).unwrap();
     for args in [["render", "sky.toml", "-q"], ["transmittance", "tables.toml", "-q"]] {
-        let out = run(root, &args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        run_ok(root, &args);
     }
     dir
 }
@@ -132,12 +127,7 @@ fn shards_fitted_apart_and_joined_are_the_whole_fit() {
     )
     .unwrap();
     let ok = |args: &[&str]| {
-        let out = run(root, args);
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        run_ok(root, args);
     };
     ok(&["fit", "fit.toml", "-q"]);
     // Before every shard is there, --combine refuses and writes nothing.

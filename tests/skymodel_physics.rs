@@ -19,20 +19,11 @@ mod common;
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::runtime::{Model, Parameters};
-use common::atmosim;
+use common::run_ok;
 use glam::DVec3;
 
 const ATMOSPHERE: &str = "[atmosphere]\nprofile = \"us_standard\"\naerosol = \"none\"\n\
                           [spectrum]\nwavelengths_nm = [450.0, 550.0]\n[observer]\naltitude_km = 0.0\n";
-
-fn run(dir: &std::path::Path, args: &[&str]) {
-    let out = atmosim().current_dir(dir).args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 #[test]
 fn a_fitted_rayleigh_sky_polarises_at_90_degrees_and_shows_the_earths_shadow() {
@@ -60,15 +51,10 @@ fn a_fitted_rayleigh_sky_polarises_at_90_degrees_and_shows_the_earths_shadow() {
         "renders = \"renders\"\ntransmittance = \"tables\"\nout = \"sky.dat\"\nresolution = 181\n",
     )
     .unwrap();
-    run(root, &["render", "render.toml", "-q"]);
-    run(root, &["transmittance", "tables.toml", "-q"]);
+    run_ok(root, &["render", "render.toml", "-q"]);
+    run_ok(root, &["transmittance", "tables.toml", "-q"]);
     // This grid has no 0° node: the fit says what that costs.
-    let out = atmosim()
-        .current_dir(root)
-        .args(["fit", "fit.toml", "-q"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run_ok(root, &["fit", "fit.toml", "-q"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("from -3° to 30° with no 0° node"), "{err}");
     let model = Model::new(

@@ -179,6 +179,18 @@ pub fn atmosim() -> assert_cmd::Command {
     assert_cmd::Command::cargo_bin("atmosim").unwrap()
 }
 
+/// Runs `atmosim ARGS` in `dir`; panics with its stderr unless it
+/// succeeds. Returns its output.
+pub fn run_ok(dir: &Path, args: &[&str]) -> std::process::Output {
+    let out = atmosim().current_dir(dir).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Writes `job` as `job.toml` in a fresh directory and runs `atmosim ARGS`
 /// there; panics unless it succeeds. Returns the directory.
 pub fn run_job(job: &str, args: &[&str]) -> tempfile::TempDir {
