@@ -135,6 +135,14 @@ pub static OPAC_COMPONENTS: &[(&str, &str)] = embedded! {
 
 /// OPAC refractive indices of all ten components, every tabulated humidity
 /// in one file per component (Hess et al. 1998); input of the Mie solver.
+/// OPAC component optics computed by atmosim's Mie solver (`atmosim
+/// opac-tables`), for the components `OPAC_COMPONENTS` lacks; same format.
+pub static OPAC_MIE_OPTICS: &[(&str, &str)] = &[];
+
+/// OPAC phase matrices by component and humidity (`mie::tables` format),
+/// named by `mie::tables::phase_table_name` (e.g. `waso_rh50`).
+pub static OPAC_PHASE: &[(&str, &str)] = &[];
+
 pub static OPAC_REFRACTIVE: &[(&str, &str)] = embedded! {
     "inso" => "atmospheres/opac/refractive/inso.txt",
     "waso" => "atmospheres/opac/refractive/waso.txt",

@@ -13,3 +13,4 @@ pub mod opac;
 pub mod phase_matrix;
 pub mod refractive;
 pub mod sphere;
+pub mod tables;
