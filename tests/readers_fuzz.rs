@@ -489,7 +489,16 @@ const PROFILES: &[&str] = &[
 const PROFILE_FILES: &[&str] = &["profile.txt", "bad_profile.txt", "empty.txt", "missing.txt", "."];
 const OZONE: &[&str] = &["bogumil", "molina", "none", "gome"];
 const RAYLEIGH: &[&str] = &["bodhaine", "none", "penndorf"];
-const AEROSOLS: &[&str] = &["continental_average", "continental_clean", "urban", "none", "desert"];
+const AEROSOLS: &[&str] = &[
+    "continental_average",
+    "continental_clean",
+    "urban",
+    "none",
+    "desert",
+    "desert_spheroids",
+    "maritime_tropical",
+];
+const AEROSOL_PHASES: &[&str] = &["mie", "hg", "rayleigh"];
 const SENSORS: &[&str] = &["directions", "fisheye", "panorama", "sphere", "camera"];
 const HEMISPHERES: &[&str] = &["up", "down", "side"];
 const PROJECTIONS: &[&str] = &["equidistant", "equisolid", "stereographic", "orthographic"];
@@ -521,6 +530,7 @@ const SECTIONS: &[(&str, &[(&str, Kind)])] = &[
             ("ozone_column_du", Num(0.0, 600.0)),
             ("rayleigh", Word(RAYLEIGH)),
             ("aerosol", Word(AEROSOLS)),
+            ("aerosol_phase", Word(AEROSOL_PHASES)),
             ("visibility_km", NumOrList(1.0, 200.0)),
         ],
     ),

@@ -15,12 +15,14 @@ use crate::atmosphere::layer_shape::LayerShape;
 use crate::atmosphere::optics::{ColumnOptics, Optics};
 use crate::atmosphere::spectral_terms::{Part, SpectralTerms, Spectrum};
 use crate::error::{Error, Result};
-use crate::physics::aerosol::Aerosol;
+use crate::physics::aerosol::{Aerosol, AerosolPhase};
 use crate::physics::constants::{CM_PER_KM, VISIBILITY_WAVELENGTH_NM};
+use crate::physics::mie::tables::PhaseTables;
 use crate::physics::ozone::{CrossSection, OzoneModel};
 use crate::physics::profile::GasProfile;
 use crate::physics::rayleigh::{self, RayleighModel};
 use crate::physics::visibility::{GroundExtinction, Visibility};
+use crate::polarization::tabulated_phase::TabulatedPhaseMatrix;
 use std::sync::Arc;
 
 /// One explicit layer of a benchmark atmosphere (wavelength independent).
@@ -45,6 +47,9 @@ pub struct ProfileSpec {
     /// Scale the ozone column (0 to top) to this many Dobson units.
     pub ozone_column_du: Option<f64>,
     pub aerosol: Option<Aerosol>,
+    /// How the OPAC aerosol scatters (explicit aerosol layers always by
+    /// Henyey–Greenstein).
+    pub aerosol_phase: AerosolPhase,
     /// Scale the aerosol boundary layer to this ground visibility.
     pub visibility_km: Option<f64>,
     /// Explicit aerosol layers (optical depth, single-scattering albedo,
@@ -165,7 +170,7 @@ fn profile_terms(
     ozone: Option<Arc<CrossSection>>,
     aerosol: Option<&Aerosol>,
     co2_ratio: f64,
-) -> SpectralTerms {
+) -> std::result::Result<SpectralTerms, BuildError> {
     let layers = 0..profile.layer_count();
     // Columns are per cm², coefficients per km.
     let per_km = |i: usize| 1.0 / (profile.levels[i + 1].z_km - profile.levels[i].z_km);
@@ -206,6 +211,7 @@ fn profile_terms(
             .clone()
             .map(|i| a.layer_parts(profile, i).unwrap_or_default())
             .collect();
+        let mut first_angles = None;
         let mut keys: Vec<(usize, usize)> = parts.iter().flatten().map(|&(c, rh, _)| (c, rh)).collect();
         keys.sort_unstable();
         keys.dedup();
@@ -215,11 +221,44 @@ fn profile_terms(
                 .iter()
                 .map(|p| p.iter().filter(|q| q.0 == c && q.1 == rh).map(|q| q.2).sum())
                 .collect();
+            let phase = match spec.aerosol_phase {
+                AerosolPhase::Mie => {
+                    let tables = component
+                        .phase_tables(rh)
+                        .map_err(|e| BuildError::Data(e.to_string()))?;
+                    check_phase_tables(&tables, &mut first_angles)?;
+                    Some(Arc::new(tables))
+                }
+                AerosolPhase::HenyeyGreenstein => None,
+            };
             let component = Arc::new(component.clone());
-            terms.push(amount, Spectrum::Aerosol { component, rh });
+            terms.push(amount, Spectrum::Aerosol { component, rh, phase });
         }
     }
-    terms
+    Ok(terms)
+}
+
+/// Checks that a component's phase tables make samplers
+/// ([`TabulatedPhaseMatrix`]) and share the scattering angles of the first
+/// table checked (`first_angles`), as a scene's tables must.
+fn check_phase_tables(
+    tables: &PhaseTables,
+    first_angles: &mut Option<Vec<f64>>,
+) -> std::result::Result<(), BuildError> {
+    for (lambda, m) in tables.wavelengths_nm.iter().zip(&tables.matrices) {
+        let name = format!("{} at RH {} % and {lambda} nm", tables.component, tables.rh_pct);
+        TabulatedPhaseMatrix::from_mie(&name, m).map_err(|e| BuildError::Data(e.to_string()))?;
+        match first_angles {
+            None => *first_angles = Some(m.angles_deg.clone()),
+            Some(a) if *a != m.angles_deg => {
+                return Err(BuildError::Data(format!(
+                    "phase table {name} is not on the scattering angles of the other aerosol tables"
+                )));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 /// The terms of explicit layers: constant responses.
@@ -330,7 +369,7 @@ impl Atmosphere {
             })
             .collect();
 
-        let terms = profile_terms(&profile, spec, ozone.map(Arc::new), aerosol.as_ref(), co2);
+        let terms = profile_terms(&profile, spec, ozone.map(Arc::new), aerosol.as_ref(), co2)?;
         let layer_shapes = profile
             .levels
             .windows(2)

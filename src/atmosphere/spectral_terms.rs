@@ -21,6 +21,7 @@ use std::sync::Arc;
 use crate::atmosphere::layer_shape::LayerShape;
 use crate::atmosphere::optics::PointOptics;
 use crate::physics::aerosol::Component;
+use crate::physics::mie::tables::PhaseTables;
 use crate::physics::ozone::CrossSection;
 use crate::physics::rayleigh;
 
@@ -97,8 +98,14 @@ pub enum Spectrum {
     /// Ozone absorption: coefficient `power` of the cross section's
     /// quadratic in T − T₀ (cm² K⁻ᵖᵒʷᵉʳ).
     Ozone { table: Arc<CrossSection>, power: usize },
-    /// An OPAC component's mass coefficients at humidity index `rh`.
-    Aerosol { component: Arc<Component>, rh: usize },
+    /// An OPAC component's mass coefficients at humidity index `rh`, and
+    /// its phase matrices there (`None`: it scatters by Henyey–Greenstein
+    /// with its g).
+    Aerosol {
+        component: Arc<Component>,
+        rh: usize,
+        phase: Option<Arc<PhaseTables>>,
+    },
 }
 
 impl Spectrum {
@@ -128,7 +135,7 @@ impl Spectrum {
                 ext: table.coefficient_cm2(lambda_nm, *power).unwrap_or(0.0),
                 ..TermOptics::default()
             },
-            Spectrum::Aerosol { component, rh } => match component.optics(lambda_nm, *rh) {
+            Spectrum::Aerosol { component, rh, .. } => match component.optics(lambda_nm, *rh) {
                 Some(o) => TermOptics {
                     ext: o.k_ext,
                     aerosol_sca: o.k_sca,

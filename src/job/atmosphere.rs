@@ -4,10 +4,10 @@
 use std::path::Path;
 
 use super::context::Ctx;
-use super::raw::{RawAerosolLayer, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
+use super::raw::{RawAerosolLayer, RawAerosolPhase, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
 use crate::atmosphere::{AerosolLayer, BuildError, ExplicitLayer, ProfileSpec};
 use crate::error::{Error, Result};
-use crate::physics::aerosol::Aerosol;
+use crate::physics::aerosol::{Aerosol, AerosolPhase};
 use crate::physics::data;
 use crate::physics::ozone::OzoneModel;
 use crate::physics::profile::GasProfile;
@@ -109,9 +109,22 @@ pub(super) fn resolve_profile_spec(
                 "atmosphere.aerosol",
                 format!("\"{aerosol_name}\""),
                 &e.to_string(),
-                "continental_average, continental_clean, continental_polluted, urban",
+                "an OPAC mixture of spherical particles (every one but desert_spheroids), or \"none\"",
             )
         })?)
+    };
+    let aerosol_phase = match atm.aerosol_phase {
+        None | Some(RawAerosolPhase::Mie) if aerosol.is_some() => AerosolPhase::Mie,
+        None => AerosolPhase::HenyeyGreenstein,
+        Some(RawAerosolPhase::Hg) => AerosolPhase::HenyeyGreenstein,
+        Some(RawAerosolPhase::Mie) => {
+            return Err(ctx.invalid(
+                "atmosphere.aerosol_phase",
+                "\"mie\"",
+                "needs an OPAC aerosol mixture (atmosphere.aerosol): explicit aerosol layers and \"none\" have no Mie tables",
+                "\"hg\", or leave it out",
+            ));
+        }
     };
     let visibilities = match &atm.visibility_km {
         None => vec![None],
@@ -156,6 +169,7 @@ pub(super) fn resolve_profile_spec(
             ozone,
             ozone_column_du,
             aerosol,
+            aerosol_phase,
             visibility_km: None,
             aerosol_layers,
         },

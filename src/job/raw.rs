@@ -37,6 +37,7 @@ pub(super) struct RawAtmosphere {
     pub(super) ozone_column_du: Option<f64>,
     pub(super) rayleigh: Option<RawRayleigh>,
     pub(super) aerosol: Option<String>,
+    pub(super) aerosol_phase: Option<RawAerosolPhase>,
     pub(super) visibility_km: Option<OneOrMany>,
     pub(super) layers: Option<Vec<RawLayer>>,
     pub(super) aerosol_layers: Option<Vec<RawAerosolLayer>>,
@@ -75,6 +76,13 @@ pub(super) struct RawLayer {
 
 pub(super) fn one() -> f64 {
     1.0
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawAerosolPhase {
+    Mie,
+    Hg,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

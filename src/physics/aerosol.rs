@@ -17,13 +17,19 @@
 //!   mixing rule adds, so interpolating and mixing commute, and at a
 //!   tabulated wavelength the table is reproduced exactly.
 //!
-//! Components in atmosim's data: inso, waso, soot, suso. Missing (no optical
-//! properties in the source data): ssam, sscm (sea salt), minm, miam, micm,
-//! mitr (mineral dust) and the spheroidal dust variants, so the maritime,
-//! desert and antarctic mixtures cannot be used yet.
+//! Components: all ten spherical OPAC components. inso, waso, soot and suso
+//! take k_ext, ω and g from libRadtran's published MIEV0 tables
+//! (`atmospheres/opac/components`), the other six (ssam, sscm, minm, miam,
+//! micm, mitr) from atmosim's own Mie tables (`atmospheres/opac/mie`,
+//! written by `atmosim opac-tables`), which agree with libRadtran's to 0.1 %
+//! where both exist; every component's phase matrices are atmosim's own.
+//! The spheroidal dust of `desert_spheroids` is not spherical, so a Mie
+//! solver cannot give its optics: that mixture is refused with an error
+//! that names `desert`, its spherical counterpart.
 
 use crate::error::{Error, Result};
 use crate::physics::data::{self, Table};
+use crate::physics::mie::tables::{PhaseTables, phase_table_name};
 use crate::physics::profile::GasProfile;
 
 /// Optical properties of one component per unit mass at one wavelength and
@@ -33,6 +39,17 @@ pub struct ComponentOptics {
     pub k_ext: f64,
     pub k_sca: f64,
     pub g: f64,
+}
+
+/// How an OPAC aerosol scatters (closed set): by the Mie phase matrices of
+/// its components (polarising; atmosim's own tables, `atmosim
+/// opac-tables`), or by a Henyey–Greenstein phase function of the mixture's
+/// asymmetry parameter that does not polarise (the seed's model).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AerosolPhase {
+    #[default]
+    Mie,
+    HenyeyGreenstein,
 }
 
 /// An OPAC component's tables.
@@ -45,9 +62,17 @@ pub struct Component {
 }
 
 impl Component {
-    /// A built-in component by name.
+    /// A built-in component by name: libRadtran's published table where
+    /// there is one, else atmosim's own Mie table.
     pub fn builtin(name: &str) -> Option<Result<Component>> {
-        data::builtin(data::OPAC_COMPONENTS, name).map(|t| Self::parse(name, t))
+        data::builtin(data::OPAC_COMPONENTS, name)
+            .or_else(|| data::builtin(data::OPAC_MIE_OPTICS, name))
+            .map(|t| Self::parse(name, t))
+    }
+
+    /// Whether `name` is a built-in component.
+    pub fn is_builtin(name: &str) -> bool {
+        data::builtin(data::OPAC_COMPONENTS, name).is_some() || data::builtin(data::OPAC_MIE_OPTICS, name).is_some()
     }
 
     /// Parses columns `wavelength_nm rh_pct k_ext ssa g`.
@@ -85,6 +110,19 @@ impl Component {
             }
         }
         best
+    }
+
+    /// The component's Mie phase matrices at the tabulated humidity index
+    /// `rh`, per tabulated wavelength.
+    pub fn phase_tables(&self, rh: usize) -> Result<PhaseTables> {
+        let name = phase_table_name(&self.name, self.rh_pct[rh]);
+        let text = data::builtin(data::OPAC_PHASE, &name).ok_or_else(|| {
+            Error::data(
+                format!("OPAC component `{}`", self.name),
+                format!("no Mie phase matrix table `{name}` (aerosol_phase = \"hg\" needs none)"),
+            )
+        })?;
+        PhaseTables::parse(&name, text)
     }
 
     /// The tabulated humidities (%).
@@ -234,19 +272,23 @@ impl Aerosol {
 
     fn with_builtin_components(mixture: Mixture) -> Result<Aerosol> {
         let active = mixture.active_components();
-        let missing: Vec<&str> = active
-            .iter()
-            .copied()
-            .filter(|c| data::builtin(data::OPAC_COMPONENTS, c).is_none())
-            .collect();
+        let missing: Vec<&str> = active.iter().copied().filter(|c| !Component::is_builtin(c)).collect();
+        if missing.iter().any(|c| c.ends_with("_spheroids")) {
+            return Err(Error::data(
+                format!("aerosol mixture `{}`", mixture.name),
+                format!(
+                    "needs non-spherical mineral dust ({}), whose optics a Mie solver for spheres cannot \
+                     give; use `desert`, the same mixture with spherical dust",
+                    missing.join(", ")
+                ),
+            ));
+        }
         if !missing.is_empty() {
             return Err(Error::data(
                 format!("aerosol mixture `{}`", mixture.name),
                 format!(
-                    "needs OPAC component(s) {} which atmosim has no optical properties for \
-                     (available: {})",
-                    missing.join(", "),
-                    data::names(data::OPAC_COMPONENTS)
+                    "needs OPAC component(s) {} which atmosim has no optical properties for",
+                    missing.join(", ")
                 ),
             ));
         }
@@ -386,19 +428,16 @@ mod tests {
     }
 
     #[test]
-    fn mixtures_without_data_name_the_missing_components() {
-        for name in ["desert", "maritime_clean", "antarctic"] {
-            let e = Aerosol::builtin(name).unwrap().unwrap_err().to_string();
-            assert!(e.contains("needs OPAC component") && e.contains(name), "{e}");
+    fn every_spherical_mixture_loads_and_the_spheroids_are_refused_by_name() {
+        for (name, _) in data::OPAC_MIXTURES.iter().filter(|(n, _)| *n != "desert_spheroids") {
+            let a = Aerosol::builtin(name).unwrap().unwrap();
+            assert_eq!(a.range_nm().0, (300.0, 800.0), "{name}");
         }
-        for name in [
-            "continental_average",
-            "continental_clean",
-            "continental_polluted",
-            "urban",
-        ] {
-            Aerosol::builtin(name).unwrap().unwrap();
-        }
+        let e = Aerosol::builtin("desert_spheroids").unwrap().unwrap_err().to_string();
+        assert!(
+            e.contains("desert_spheroids") && e.contains("minm_spheroids") && e.contains("use `desert`"),
+            "{e}"
+        );
     }
 
     #[test]

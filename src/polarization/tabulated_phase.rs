@@ -254,11 +254,30 @@ impl TabulatedPhaseMatrix {
     /// The phase matrix at `cos_theta` in the scattering-plane frame, with
     /// P22 = P11 and P44 = P33 (spheres).
     pub fn matrix(&self, cos_theta: f64) -> PhaseMatrix {
+        let (i, w) = self.locate(cos_theta);
+        self.matrix_on(i, w)
+    }
+
+    /// Where `cos_theta` (clamped to [−1, 1]) lies in the table: its segment
+    /// i and the weight w ∈ [0, 1] of node i + 1. Tables on the same μ
+    /// nodes share it ([`crate::polarization::phase_table_set`]).
+    #[inline]
+    pub fn locate(&self, cos_theta: f64) -> (usize, f64) {
         let mu = cos_theta.clamp(-1.0, 1.0);
         let i = self.segment(mu);
-        let w = (mu - self.mu[i]) * self.inv_dmu[i];
+        (i, (mu - self.mu[i]) * self.inv_dmu[i])
+    }
+
+    /// The μ nodes, ascending from −1 to 1.
+    pub fn mu_nodes(&self) -> &[f64] {
+        &self.mu
+    }
+
+    /// The phase matrix at the place `(i, w)` of [`TabulatedPhaseMatrix::locate`].
+    #[inline]
+    pub fn matrix_on(&self, i: usize, w: f64) -> PhaseMatrix {
         let lerp = |v: &[f64]| v[i] + w * (v[i + 1] - v[i]);
-        let p11 = self.p11_on(i, mu);
+        let p11 = lerp(&self.p11);
         let p33 = lerp(&self.p33);
         PhaseMatrix {
             p11,

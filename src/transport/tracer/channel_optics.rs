@@ -65,6 +65,7 @@ impl Scene {
                 .responses_into(lambda(w), &mut spectra.responses[w * t..(w + 1) * t]);
         }
         self.refresh_weights(spectra);
+        self.refresh_phase_nodes(spectra, lambda);
         self.refresh_solar(spectra, lambda);
     }
 

@@ -12,7 +12,6 @@ use crate::transport::free_flight::FlightEnd;
 use super::path::{Depths, Outcome, Path};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::vertex::phase_mixture;
 
 impl Scene {
     /// Every channel's optical depth from the ray's origin to where it
@@ -195,7 +194,7 @@ impl Scene {
         path.mixtures.clear();
         for w in 0..n {
             let c = self.coefficients(spectra, layer, w, f);
-            path.mixtures.push(phase_mixture(&c));
+            path.mixtures.push(self.phase_mixture(spectra, layer, w, &c));
             let transmittance = if w == hero {
                 1.0
             } else {

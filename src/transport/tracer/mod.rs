@@ -79,6 +79,7 @@
 //! What was measured and chosen (hero choice, roulette, splitting, the
 //! sun-aware share): README, "Throughput" and "Sun connections".
 
+mod aerosol_phase;
 mod channel_optics;
 mod direct;
 mod flight;

@@ -17,6 +17,7 @@ use crate::physics::solar::SolarSpectrum;
 use crate::transport::medium::density_steps;
 use crate::transport::sun_depth::SunDepth;
 
+use super::aerosol_phase::AerosolPhases;
 use super::path::SunFollow;
 use super::spectra::{Basis, ChannelSpectra};
 use super::vertex::reflects;
@@ -71,6 +72,8 @@ pub struct Scene {
     /// spherical shells of this planet radius (km), as DISORT's
     /// pseudo-spherical mode does; everything else stays plane-parallel.
     pub(super) pseudo_spherical_radius_km: Option<f64>,
+    /// The aerosol's tabulated phase matrices (`None`: Henyey–Greenstein).
+    pub(super) aerosol_phases: Option<AerosolPhases>,
 }
 
 /// How the medium between a scene's levels is modelled and tracked.
@@ -132,6 +135,7 @@ impl Scene {
         };
         let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
         let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
+        let aerosol_phases = AerosolPhases::of_terms(&terms, layers);
         let mut scene = Scene {
             geometry,
             sun,
@@ -152,12 +156,14 @@ impl Scene {
             basis_shapes,
             majorant_scale: medium.majorant_scale.max(1.0),
             pseudo_spherical_radius_km: medium.pseudo_spherical_radius_km,
+            aerosol_phases,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
                 responses: centre,
                 weights: vec![0.0; n * b],
                 solar: Vec::new(),
+                phase_nodes: Vec::new(),
                 sigma: Vec::new(),
                 coefficients: Vec::new(),
             };
@@ -173,6 +179,7 @@ impl Scene {
                     .collect();
             }
             scene.refresh_solar(&mut fixed, |w| scene.channels[w].lambda_nm);
+            scene.refresh_phase_nodes(&mut fixed, |w| scene.channels[w].lambda_nm);
             scene.fixed = Some(fixed);
         }
         scene

@@ -4,6 +4,8 @@
 use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::TermOptics;
 
+use super::aerosol_phase::PhaseNode;
+
 /// What the channels' optics are on one path: each channel's term
 /// responses (`[channel·terms + term]`), extinction weights on the
 /// basis (`[channel·basis + b]`) and solar factors (E0 at the channel's
@@ -13,6 +15,9 @@ pub(super) struct ChannelSpectra {
     pub(super) responses: Vec<TermOptics>,
     pub(super) weights: Vec<f64>,
     pub(super) solar: Vec<f64>,
+    /// Where each channel's wavelength lies in each aerosol phase term's
+    /// tables (`[channel·phase terms + term]`; empty without them).
+    pub(super) phase_nodes: Vec<PhaseNode>,
     /// Where every path shares them (monochromatic channels): each
     /// channel's σ_t per layer (`[channel·layers + layer]`; the layer mean in
     /// the smooth medium) and, in the layered medium, its coefficients per

@@ -15,7 +15,7 @@ use crate::transport::free_flight::FlightEnd;
 use super::path::{PIECE_SEGMENTS, Path};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::vertex::{INV_4PI, SUN_AWARE_SHARE, phase_mixture, scattering_frame, sun_ray};
+use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
 
 impl Scene {
     /// A sun connection from the point at distance `t` in segment `i` of
@@ -43,7 +43,7 @@ impl Scene {
         path.factors.clear();
         for w in 0..self.channels.len() {
             let c = self.coefficients(spectra, seg.layer, w, 0.0);
-            path.mixtures.push(phase_mixture(&c));
+            path.mixtures.push(self.phase_mixture(spectra, seg.layer, w, &c));
             path.factors.push((-path.tau_hit[w]).exp() / q * c.sigma_s());
         }
         self.sun_from(
@@ -257,14 +257,14 @@ impl Scene {
             return;
         }
         let k_in = -s;
-        let cos = k_in.dot(k_out);
+        let at = self.phase_tables().locate(k_in.dot(k_out));
         let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
         for w in 0..self.channels.len() {
             let tr = path.shadow_tr[w];
             if tr == 0.0 {
                 continue;
             }
-            let m = path.mixtures[w].matrix(cos);
+            let m = path.mixtures[w].matrix(&at);
             let column = if self.settings.polarized {
                 rotation.column_of(&path.throughput[w], &m)
             } else {

@@ -14,7 +14,7 @@ use crate::sampling::sampler::Sampler;
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::vertex::{cosine_hemisphere, pick_component, quarter_turn, reference_albedo, scattering_frame};
+use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
     /// One sample of the diffuse Stokes radiance arriving at the observer at
@@ -147,14 +147,14 @@ impl Scene {
                     // Direction from one wavelength's phase function, picked
                     // uniformly, weighted by the mixture of all wavelengths'
                     // densities.
+                    // (`path.mixtures` holds every channel's mixture at the
+                    // collision.)
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-                    let f = self.fraction(&self.geometry, layer, x);
-                    let coeffs = self.coefficients(spectra, layer, pick, f);
-                    let component = pick_component(&coeffs, sampler.next_f64());
-                    let (k_in, _) = component.sample_direction(k_out, sampler.next2());
-                    let cos = k_in.dot(k_out);
+                    let tables = self.phase_tables();
+                    let k_in = path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables);
+                    let at = tables.locate(k_in.dot(k_out));
                     path.matrices.clear();
-                    path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(cos)));
+                    path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(&at)));
                     if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
                         branch.branch_from(path);
                         branch.halve();

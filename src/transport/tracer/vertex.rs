@@ -11,7 +11,7 @@ use crate::atmosphere::optics::PointOptics;
 use crate::geometry::basis::orthonormal_basis;
 use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
-use crate::polarization::phase::{PhaseFunction, PhaseMixture};
+use crate::polarization::phase::PhaseMixture;
 use crate::polarization::stokes::StokesRotation;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
@@ -49,18 +49,6 @@ pub(crate) fn reflects(albedos: &[f64]) -> bool {
 #[inline]
 pub(crate) fn reference_albedo(albedos: &[f64]) -> f64 {
     albedos.iter().sum::<f64>() / albedos.len() as f64
-}
-
-/// The phase function of one component, picked with probability σ_i/σ_s.
-#[inline]
-pub(crate) fn pick_component(c: &PointOptics, u: f64) -> PhaseFunction {
-    if u * c.sigma_s() < c.sigma_rayleigh {
-        PhaseFunction::Rayleigh {
-            depolarization: c.rayleigh_depolarization,
-        }
-    } else {
-        PhaseFunction::HenyeyGreenstein { g: c.aerosol_g }
-    }
 }
 
 /// The σ_s-weighted mixture of a point's phase functions.
@@ -142,6 +130,7 @@ pub(crate) fn cosine_hemisphere(up: DVec3, u: [f64; 2]) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::polarization::phase::PhaseFunction;
     use crate::polarization::stokes::{Mueller, rotation_angle};
     use crate::sampling::sampler::Sampler;
 
