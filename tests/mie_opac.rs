@@ -186,3 +186,26 @@ fn size_quadrature_converges() {
         assert!(d.iter().all(|d| d.abs() < 1e-4), "{c}: {d:?}");
     }
 }
+
+/// The cost of the largest phase matrices: sscm at 0 % and 300 nm (size
+/// parameters up to 1257, about 25 000 radii) on the default angle grid,
+/// and without angles (the spheres' coefficients and efficiencies alone).
+/// Run with `cargo test --release --test mie_opac -- --ignored --nocapture
+/// timing`; the times are printed, nothing is asserted.
+#[test]
+#[ignore = "timing, prints the seconds the sscm 300 nm phase matrix takes"]
+fn timing_sscm_300nm_phase_matrix() {
+    let angles = default_angles_deg();
+    for a in [&angles[..0], &angles[..]] {
+        let start = std::time::Instant::now();
+        let o = component_optics("sscm", 0.0, 300.0, a, Quadrature::default()).unwrap();
+        println!(
+            "sscm 0 % 300 nm, {} angles: {:.2} s (k_ext {:.6e}, ssa {:.6}, g {:.6})",
+            a.len(),
+            start.elapsed().as_secs_f64(),
+            o.k_ext,
+            o.ssa,
+            o.g
+        );
+    }
+}

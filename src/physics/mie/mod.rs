@@ -1,6 +1,7 @@
 //! Mie scattering from first principles: one homogeneous sphere
 //! (Lorenz–Mie, [`sphere`]), truncated log-normal ensembles of spheres
-//! ([`lognormal`]) with their phase matrices ([`phase_matrix`]), and the
+//! ([`lognormal`]) with their phase matrices ([`phase_matrix`], summed over
+//! the sizes by matrix products in [`ensemble_sums`]), and the
 //! OPAC components' optics from their size distributions and refractive
 //! indices ([`refractive`], [`opac`]).
 //!
@@ -8,6 +9,7 @@
 //! matrices are in the scattering-plane frame and normalised so that
 //! ½∫₋₁¹ P11 dμ = 1 (CONVENTIONS.md §6, §11).
 
+pub mod ensemble_sums;
 pub mod lognormal;
 pub mod opac;
 pub mod phase_matrix;
