@@ -58,6 +58,10 @@ enum Command {
     /// Compare a fitted dataset with its renders: SNR, errors by axis,
     /// interpolation ratio, transmittance error; a Markdown report.
     FitReport(cli::fit_report::FitReportArgs),
+    /// Compute the OPAC components' Mie tables (k_ext, ssa, g and phase
+    /// matrices at every tabulated humidity, 300-800 nm) into
+    /// atmospheres/opac/mie/ (see README).
+    OpacTables(cli::opac_tables::OpacTablesArgs),
 }
 
 fn main() -> ExitCode {
@@ -95,6 +99,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Atmosphere(args) => cli::atmosphere::run(args),
         Command::Uvspec(args) => cli::uvspec::run(args),
         Command::Validate(args) => cli::validate::run(args),
+        Command::OpacTables(args) => cli::opac_tables::run(args),
     }
 }
 

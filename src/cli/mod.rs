@@ -9,6 +9,7 @@ pub mod eval;
 pub mod fit;
 pub mod fit_report;
 pub mod merge;
+pub mod opac_tables;
 pub mod plan;
 pub mod progress;
 pub mod render;

@@ -133,16 +133,68 @@ pub static OPAC_COMPONENTS: &[(&str, &str)] = embedded! {
     "suso" => "atmospheres/opac/components/suso.txt",
 };
 
-/// OPAC refractive indices of all ten components, every tabulated humidity
-/// in one file per component (Hess et al. 1998); input of the Mie solver.
 /// OPAC component optics computed by atmosim's Mie solver (`atmosim
-/// opac-tables`), for the components `OPAC_COMPONENTS` lacks; same format.
-pub static OPAC_MIE_OPTICS: &[(&str, &str)] = &[];
+/// opac-tables`), all ten components; same format as `OPAC_COMPONENTS`,
+/// which keeps libRadtran's published tables of the four it has.
+pub static OPAC_MIE_OPTICS: &[(&str, &str)] = embedded! {
+    "inso" => "atmospheres/opac/mie/inso_optics.txt",
+    "waso" => "atmospheres/opac/mie/waso_optics.txt",
+    "soot" => "atmospheres/opac/mie/soot_optics.txt",
+    "ssam" => "atmospheres/opac/mie/ssam_optics.txt",
+    "sscm" => "atmospheres/opac/mie/sscm_optics.txt",
+    "minm" => "atmospheres/opac/mie/minm_optics.txt",
+    "miam" => "atmospheres/opac/mie/miam_optics.txt",
+    "micm" => "atmospheres/opac/mie/micm_optics.txt",
+    "mitr" => "atmospheres/opac/mie/mitr_optics.txt",
+    "suso" => "atmospheres/opac/mie/suso_optics.txt",
+};
 
 /// OPAC phase matrices by component and humidity (`mie::tables` format),
-/// named by `mie::tables::phase_table_name` (e.g. `waso_rh50`).
-pub static OPAC_PHASE: &[(&str, &str)] = &[];
+/// named by `mie::tables::phase_table_name` (e.g. `waso_rh50`), written by
+/// `atmosim opac-tables`.
+pub static OPAC_PHASE: &[(&str, &str)] = embedded! {
+    "inso_rh0" => "atmospheres/opac/mie/inso_rh0_phase.txt",
+    "waso_rh0" => "atmospheres/opac/mie/waso_rh0_phase.txt",
+    "waso_rh50" => "atmospheres/opac/mie/waso_rh50_phase.txt",
+    "waso_rh70" => "atmospheres/opac/mie/waso_rh70_phase.txt",
+    "waso_rh80" => "atmospheres/opac/mie/waso_rh80_phase.txt",
+    "waso_rh90" => "atmospheres/opac/mie/waso_rh90_phase.txt",
+    "waso_rh95" => "atmospheres/opac/mie/waso_rh95_phase.txt",
+    "waso_rh98" => "atmospheres/opac/mie/waso_rh98_phase.txt",
+    "waso_rh99" => "atmospheres/opac/mie/waso_rh99_phase.txt",
+    "soot_rh0" => "atmospheres/opac/mie/soot_rh0_phase.txt",
+    "ssam_rh0" => "atmospheres/opac/mie/ssam_rh0_phase.txt",
+    "ssam_rh50" => "atmospheres/opac/mie/ssam_rh50_phase.txt",
+    "ssam_rh70" => "atmospheres/opac/mie/ssam_rh70_phase.txt",
+    "ssam_rh80" => "atmospheres/opac/mie/ssam_rh80_phase.txt",
+    "ssam_rh90" => "atmospheres/opac/mie/ssam_rh90_phase.txt",
+    "ssam_rh95" => "atmospheres/opac/mie/ssam_rh95_phase.txt",
+    "ssam_rh98" => "atmospheres/opac/mie/ssam_rh98_phase.txt",
+    "ssam_rh99" => "atmospheres/opac/mie/ssam_rh99_phase.txt",
+    "sscm_rh0" => "atmospheres/opac/mie/sscm_rh0_phase.txt",
+    "sscm_rh50" => "atmospheres/opac/mie/sscm_rh50_phase.txt",
+    "sscm_rh70" => "atmospheres/opac/mie/sscm_rh70_phase.txt",
+    "sscm_rh80" => "atmospheres/opac/mie/sscm_rh80_phase.txt",
+    "sscm_rh90" => "atmospheres/opac/mie/sscm_rh90_phase.txt",
+    "sscm_rh95" => "atmospheres/opac/mie/sscm_rh95_phase.txt",
+    "sscm_rh98" => "atmospheres/opac/mie/sscm_rh98_phase.txt",
+    "sscm_rh99" => "atmospheres/opac/mie/sscm_rh99_phase.txt",
+    "minm_rh0" => "atmospheres/opac/mie/minm_rh0_phase.txt",
+    "miam_rh0" => "atmospheres/opac/mie/miam_rh0_phase.txt",
+    "micm_rh0" => "atmospheres/opac/mie/micm_rh0_phase.txt",
+    "mitr_rh0" => "atmospheres/opac/mie/mitr_rh0_phase.txt",
+    "suso_rh0" => "atmospheres/opac/mie/suso_rh0_phase.txt",
+    "suso_rh50" => "atmospheres/opac/mie/suso_rh50_phase.txt",
+    "suso_rh70" => "atmospheres/opac/mie/suso_rh70_phase.txt",
+    "suso_rh80" => "atmospheres/opac/mie/suso_rh80_phase.txt",
+    "suso_rh90" => "atmospheres/opac/mie/suso_rh90_phase.txt",
+    "suso_rh95" => "atmospheres/opac/mie/suso_rh95_phase.txt",
+    "suso_rh98" => "atmospheres/opac/mie/suso_rh98_phase.txt",
+    "suso_rh99" => "atmospheres/opac/mie/suso_rh99_phase.txt",
+};
 
+/// OPAC refractive indices of all ten components, every tabulated humidity
+/// in one file per component (Hess et al. 1998); input of the Mie solver.
 pub static OPAC_REFRACTIVE: &[(&str, &str)] = embedded! {
     "inso" => "atmospheres/opac/refractive/inso.txt",
     "waso" => "atmospheres/opac/refractive/waso.txt",

@@ -26,8 +26,9 @@ use std::f64::consts::PI;
 use num_complex::Complex64;
 
 use crate::error::{Error, Result};
+use crate::physics::mie::ensemble_sums::{AngularFunctions, ElementSums};
 use crate::physics::mie::phase_matrix::PhaseMatrix;
-use crate::physics::mie::sphere::Sphere;
+use crate::physics::mie::sphere::{Sphere, n_stop};
 
 /// A truncated log-normal number distribution of sphere radii.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -165,8 +166,16 @@ impl LogNormal {
         let k = 2.0 * PI / wavelength_um;
         let mu: Vec<f64> = angles_deg.iter().map(|a| a.to_radians().cos()).collect();
         let nodes = self.nodes(wavelength_um, q);
+        // The angular functions up to the largest sphere's order, shared by
+        // every radius (none needed without angles).
+        let n_max = if mu.is_empty() {
+            0
+        } else {
+            nodes.iter().map(|&(r, _)| n_stop(k * r)).max().unwrap_or(0)
+        };
+        let functions = AngularFunctions::new(&mu, n_max);
+        let mut sums = ElementSums::new(&functions);
         let (mut n_sum, mut c_ext, mut c_sca, mut g_sca, mut vol) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        let mut s = vec![[0.0; 4]; mu.len()];
         for &(r, w) in &nodes {
             let sphere = Sphere::new(k * r, m)?;
             let e = sphere.efficiencies();
@@ -176,13 +185,11 @@ impl LogNormal {
             c_sca += w * area * e.q_sca;
             g_sca += w * area * e.q_sca * e.g;
             vol += w * 4.0 / 3.0 * PI * r * r * r;
-            for (acc, &mu_j) in s.iter_mut().zip(&mu) {
-                let el = sphere.amplitudes(mu_j).matrix_elements();
-                for (a, v) in acc.iter_mut().zip(el) {
-                    *a += w * v;
-                }
+            if !mu.is_empty() {
+                sums.add(&sphere, w);
             }
         }
+        let s = sums.finish();
         // P = 4π/k² · Σ w S / Σ w C_sca (so that (1/4π)∫P11 dΩ = 1).
         let norm = 4.0 * PI / (k * k * c_sca);
         let col = |j: usize| s.iter().map(|e| e[j] * norm).collect::<Vec<f64>>();

@@ -224,6 +224,11 @@ impl Sphere {
         Amplitudes { s1, s2 }
     }
 
+    /// The coefficients aₙ and bₙ, n = 1..=N at index n − 1.
+    pub fn coefficients(&self) -> (&[Complex64], &[Complex64]) {
+        (&self.a, &self.b)
+    }
+
     /// The coefficient aₙ (n ≥ 1), for tests.
     pub fn a(&self, n: usize) -> Complex64 {
         self.a[n - 1]

@@ -15,7 +15,7 @@
 //!   [−1, 1] and need no exponent. Signs as in [`super::phase_matrix`].
 
 use crate::error::{Error, Result};
-use crate::physics::data::Table;
+use crate::physics::data::{self, Table};
 use crate::physics::mie::phase_matrix::PhaseMatrix;
 
 /// One component's phase matrices at one humidity, per wavelength.
@@ -32,6 +32,15 @@ pub struct PhaseTables {
 /// The name of the table of `component` at `rh_pct` (e.g. `waso_rh50`).
 pub fn phase_table_name(component: &str, rh_pct: f64) -> String {
     format!("{component}_rh{rh_pct}")
+}
+
+/// The shipped phase tables of OPAC component `component` at its
+/// tabulated humidity `rh_pct` (`atmospheres/opac/mie/<component>_rh<RH>_phase.txt`,
+/// embedded in the binary); `None` when there is no such table.
+pub fn builtin_phase(component: &str, rh_pct: f64) -> Option<Result<PhaseTables>> {
+    let name = phase_table_name(component, rh_pct);
+    data::builtin(data::OPAC_PHASE, &name)
+        .map(|text| PhaseTables::parse(&format!("atmospheres/opac/mie/{name}_phase.txt"), text))
 }
 
 impl PhaseTables {
@@ -121,7 +130,12 @@ impl PhaseTables {
             let _ = write!(s, "{angle}");
             for m in &self.matrices {
                 let p11 = m.p11[i];
-                let ratio = |v: f64| if p11 > 0.0 { v / p11 } else { 0.0 };
+                // Ratios that print as zero are written as 0.000000, never
+                // -0.000000: the sign of a rounding residue is noise.
+                let ratio = |v: f64| {
+                    let r = if p11 > 0.0 { v / p11 } else { 0.0 };
+                    if r.abs() < 5e-7 { 0.0 } else { r }
+                };
                 let _ = write!(
                     s,
                     " {p11:.6e} {:.6} {:.6} {:.6}",
