@@ -263,6 +263,52 @@ fn the_quickstart_example_renders() {
 }
 
 #[test]
+fn every_spherical_opac_mixture_renders_the_quickstart_sky() {
+    // The quickstart job with each mixture in turn (fewer pixels and
+    // paths): Mie aerosol by default, finite radiances, degree of linear
+    // polarisation within [0, 1]; and the spheroidal dust refused by key.
+    let quickstart = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/quickstart.toml")).unwrap();
+    let small = quickstart
+        .replace("resolution = 96", "resolution = 12")
+        .replace("samples = 256", "samples = 8");
+    for (mixture, _) in atmosim::physics::data::OPAC_MIXTURES {
+        let job = small.replace("aerosol = \"continental_average\"", &format!("aerosol = \"{mixture}\""));
+        assert!(job.contains(mixture));
+        if *mixture == "desert_spheroids" {
+            common::assert_refused("render", &job, &["atmosphere.aerosol", "desert_spheroids", "desert"]);
+            continue;
+        }
+        let dir = run_job(&job, &["render", "job.toml", "--out", "o", "-q"]);
+        let exr = read_exr(&dir.path().join("o/image.exr")).unwrap();
+        let mut lit = 0;
+        for channel in exr.channels.iter().filter(|c| c.name.ends_with(".I")) {
+            let named = |n: String| &exr.channels.iter().find(|c| c.name == n).unwrap().samples;
+            let (q, u) = (
+                named(channel.name.replace(".I", ".Q")),
+                named(channel.name.replace(".I", ".U")),
+            );
+            for ((i, q), u) in channel.samples.iter().zip(q).zip(u) {
+                assert!(i.is_finite() && *i >= 0.0, "{mixture} {}: I = {i}", channel.name);
+                if *i > 0.0 {
+                    lit += 1;
+                    assert!(q.hypot(*u) <= i * (1.0 + 1e-5), "{mixture}: DoLP above 1");
+                }
+            }
+        }
+        assert!(lit > 0, "{mixture}: an empty sky");
+    }
+    // aerosol_phase: only the OPAC mixtures have Mie tables; a value
+    // outside the set is named.
+    let none = small.replace(
+        "aerosol = \"continental_average\"",
+        "aerosol = \"none\"\naerosol_phase = \"mie\"",
+    );
+    common::assert_refused("render", &none, &["atmosphere.aerosol_phase", "\"hg\""]);
+    let bad = small.replace("aerosol = \"continental_average\"", "aerosol_phase = \"rayleigh\"");
+    common::assert_refused("render", &bad, &["aerosol_phase", "rayleigh"]);
+}
+
+#[test]
 fn the_direct_sun_table_has_no_undefined_values_for_any_sensor() {
     // (sensor, sun, the header expected, whether the sun is in the image)
     let cases = [

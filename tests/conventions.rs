@@ -23,6 +23,7 @@ use atmosim::job::{GeometryKind, Job};
 use atmosim::physics::rayleigh;
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::polarization::phase::{PhaseFunction, PhaseMixture};
+use atmosim::polarization::phase_table_set::PhaseTableSet;
 use atmosim::polarization::stokes::{Stokes, StokesRotation, meridian_frame, rotation_angle};
 use atmosim::polarization::stokes_frame::{StokesFrame, carry};
 use atmosim::run::task::render_directions as render_task;
@@ -632,7 +633,7 @@ fn s6_phase_functions_and_their_mixtures_integrate_to_four_pi() {
     for (what, f) in [
         ("Rayleigh", &(|mu| rayleigh.p11(mu)) as &dyn Fn(f64) -> f64),
         ("HG", &|mu| hg.p11(mu)),
-        ("mixture", &|mu| mixture.matrix(mu).p11),
+        ("mixture", &|mu| mixture.matrix(&PhaseTableSet::EMPTY.locate(mu)).p11),
     ] {
         assert_close(0.5 * integrate(f), 1.0, 1e-10, what);
     }

@@ -29,7 +29,7 @@
 
 use crate::error::{Error, Result};
 use crate::physics::data::{self, Table};
-use crate::physics::mie::tables::{PhaseTables, phase_table_name};
+use crate::physics::mie::tables::{PhaseTables, builtin_phase};
 use crate::physics::profile::GasProfile;
 
 /// Optical properties of one component per unit mass at one wavelength and
@@ -115,14 +115,15 @@ impl Component {
     /// The component's Mie phase matrices at the tabulated humidity index
     /// `rh`, per tabulated wavelength.
     pub fn phase_tables(&self, rh: usize) -> Result<PhaseTables> {
-        let name = phase_table_name(&self.name, self.rh_pct[rh]);
-        let text = data::builtin(data::OPAC_PHASE, &name).ok_or_else(|| {
-            Error::data(
+        builtin_phase(&self.name, self.rh_pct[rh]).unwrap_or_else(|| {
+            Err(Error::data(
                 format!("OPAC component `{}`", self.name),
-                format!("no Mie phase matrix table `{name}` (aerosol_phase = \"hg\" needs none)"),
-            )
-        })?;
-        PhaseTables::parse(&name, text)
+                format!(
+                    "no Mie phase matrix table at RH {} % (aerosol_phase = \"hg\" needs none)",
+                    self.rh_pct[rh]
+                ),
+            ))
+        })
     }
 
     /// The tabulated humidities (%).

@@ -210,3 +210,73 @@ impl Scene {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::atmosphere::spectral_terms::Term;
+    use crate::physics::aerosol::Component;
+
+    /// waso at 50 % in one layer and inso in two: the tables of a channel
+    /// between two tabulated wavelengths are the two nodes' tables weighted
+    /// by amount·(1 − f)·k_sca(λ_i) and amount·f·k_sca(λ_{i+1}), so that the
+    /// mixture's P11 is the k_sca-weighted interpolation the module states.
+    #[test]
+    fn a_wavelength_between_tables_mixes_them_by_scattering() {
+        let term = |name: &str, rh: usize, amount: Vec<f64>| {
+            let component = Component::builtin(name).unwrap().unwrap();
+            let phase = Some(Arc::new(component.phase_tables(rh).unwrap()));
+            Term {
+                amount,
+                spectrum: Spectrum::Aerosol {
+                    component: Arc::new(component),
+                    rh,
+                    phase,
+                },
+            }
+        };
+        let terms = SpectralTerms {
+            terms: vec![term("waso", 1, vec![2e-5, 0.0]), term("inso", 0, vec![1e-5, 3e-6])],
+        };
+        let phases = AerosolPhases::of_terms(&terms, 2).unwrap();
+        assert_eq!(phases.term_count(), 2);
+        let mut nodes = [(0, 0.0); 2];
+        // 520 nm: halfway between the 500 and 540 nm tables.
+        phases.nodes_into(520.0, &mut nodes);
+        let (i, f) = nodes[0];
+        assert_eq!((phases.terms[0].wavelengths_nm[i], f), (500.0, 0.5));
+        let mut m = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
+        phases.add_to(&mut m, 0, &nodes, 0.6);
+        assert_eq!(m.tabulated().len(), 4);
+        let sum: f64 = m.tabulated().iter().map(|t| t.1).sum();
+        assert!((sum - 0.6).abs() < 1e-15);
+        let waso = Component::builtin("waso").unwrap().unwrap();
+        let inso = Component::builtin("inso").unwrap().unwrap();
+        let k = |c: &Component, rh, l| c.optics(l, rh).unwrap().k_sca;
+        let parts = [
+            2e-5 * 0.5 * k(&waso, 1, 500.0),
+            2e-5 * 0.5 * k(&waso, 1, 540.0),
+            1e-5 * 0.5 * k(&inso, 0, 500.0),
+            1e-5 * 0.5 * k(&inso, 0, 540.0),
+        ];
+        let total: f64 = parts.iter().sum();
+        for ((_, w), p) in m.tabulated().iter().zip(parts) {
+            assert!((w - 0.6 * p / total).abs() < 1e-15, "{w} vs {}", 0.6 * p / total);
+        }
+        // The layer's σ_sca at 520 nm is the same sum: k_sca is linear
+        // between the tabulated wavelengths.
+        let sigma = 2e-5 * k(&waso, 1, 520.0) + 1e-5 * k(&inso, 0, 520.0);
+        assert!((sigma - total).abs() < 1e-12 * total);
+        // The second layer holds inso alone.
+        let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
+        phases.add_to(&mut m, 1, &nodes, 1.0);
+        assert_eq!(m.tabulated().len(), 2);
+        // At a tabulated wavelength one table per component.
+        phases.nodes_into(540.0, &mut nodes);
+        let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
+        phases.add_to(&mut m, 0, &nodes, 1.0);
+        assert_eq!(m.tabulated().len(), 2);
+    }
+}
