@@ -128,8 +128,11 @@ fn unknown_mixture_lists_the_valid_names() {
 }
 
 #[test]
-fn mixture_without_component_data_names_the_missing_components() {
-    rejects("[atmosphere]\naerosol = \"desert\"\n", &["atmosphere.aerosol", "minm"]);
+fn the_spheroidal_dust_mixture_names_its_components_and_the_spherical_one() {
+    rejects(
+        "[atmosphere]\naerosol = \"desert_spheroids\"\n",
+        &["atmosphere.aerosol", "minm_spheroids", "use `desert`"],
+    );
 }
 
 #[test]

@@ -211,7 +211,7 @@ fn profile_terms(
             .clone()
             .map(|i| a.layer_parts(profile, i).unwrap_or_default())
             .collect();
-        let mut first_angles = None;
+        let mut first_tables = None;
         let mut keys: Vec<(usize, usize)> = parts.iter().flatten().map(|&(c, rh, _)| (c, rh)).collect();
         keys.sort_unstable();
         keys.dedup();
@@ -226,7 +226,7 @@ fn profile_terms(
                     let tables = component
                         .phase_tables(rh)
                         .map_err(|e| BuildError::Data(e.to_string()))?;
-                    check_phase_tables(&tables, &mut first_angles)?;
+                    check_phase_tables(&tables, &mut first_tables)?;
                     Some(Arc::new(tables))
                 }
                 AerosolPhase::HenyeyGreenstein => None,
@@ -239,23 +239,34 @@ fn profile_terms(
 }
 
 /// Checks that a component's phase tables make samplers
-/// ([`TabulatedPhaseMatrix`]) and share the scattering angles of the first
-/// table checked (`first_angles`), as a scene's tables must.
+/// ([`TabulatedPhaseMatrix`]) and share the scattering angles and
+/// wavelengths of the first table checked (`first`), as a scene's tables
+/// must (it combines the components' tables per layer and wavelength).
 fn check_phase_tables(
     tables: &PhaseTables,
-    first_angles: &mut Option<Vec<f64>>,
+    first: &mut Option<(Vec<f64>, Vec<f64>)>,
 ) -> std::result::Result<(), BuildError> {
+    let first = first.get_or_insert_with(|| {
+        let angles = tables
+            .matrices
+            .first()
+            .map(|m| m.angles_deg.clone())
+            .unwrap_or_default();
+        (angles, tables.wavelengths_nm.clone())
+    });
+    if first.1 != tables.wavelengths_nm {
+        return Err(BuildError::Data(format!(
+            "the phase tables of {} at RH {} % are not at the other aerosol tables' wavelengths",
+            tables.component, tables.rh_pct
+        )));
+    }
     for (lambda, m) in tables.wavelengths_nm.iter().zip(&tables.matrices) {
         let name = format!("{} at RH {} % and {lambda} nm", tables.component, tables.rh_pct);
         TabulatedPhaseMatrix::from_mie(&name, m).map_err(|e| BuildError::Data(e.to_string()))?;
-        match first_angles {
-            None => *first_angles = Some(m.angles_deg.clone()),
-            Some(a) if *a != m.angles_deg => {
-                return Err(BuildError::Data(format!(
-                    "phase table {name} is not on the scattering angles of the other aerosol tables"
-                )));
-            }
-            Some(_) => {}
+        if first.0 != m.angles_deg {
+            return Err(BuildError::Data(format!(
+                "phase table {name} is not on the scattering angles of the other aerosol tables"
+            )));
         }
     }
     Ok(())

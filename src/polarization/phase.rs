@@ -217,10 +217,10 @@ fn sample_hg_cos_theta(g: f64, u: f64) -> f64 {
     mu.clamp(-1.0, 1.0)
 }
 
-/// The most tabulated phase matrices one mixture holds: two tabulated
-/// wavelengths for each of the ten OPAC components (a point has one
-/// humidity, so one table set per component).
-pub const MAX_TABULATED: usize = 20;
+/// The most tabulated phase matrices one mixture holds: a point's aerosol
+/// is its layer's combined tables at the two tabulated wavelengths around
+/// the channel's (`transport::tracer::aerosol_phase`).
+pub const MAX_TABULATED: usize = 2;
 
 /// The σ_s-weighted mixture of Rayleigh (weight w_r, depolarisation ρ),
 /// Henyey–Greenstein (weight w_hg, asymmetry g) and tabulated phase matrices
@@ -466,6 +466,7 @@ mod tests {
         let mut m = PhaseMixture::new(0.3, RHO_AIR, 0.2, 0.7);
         m.push_tabulated(0, 0.35);
         m.push_tabulated(1, 0.15);
+        assert_eq!(MAX_TABULATED, 2);
         m
     }
 

@@ -73,7 +73,15 @@ pub struct TabulatedPhaseMatrix {
     mean_cosine: f64,
     /// The factor the input elements were multiplied by.
     renormalization: f64,
+    /// Per cell of sin(Θ/2) ([`GUIDE`] cells): the segment at its smallest μ.
+    guide_mu: Vec<u32>,
+    /// Per cell of the CDF: the segment at its lowest value.
+    guide_cdf: Vec<u32>,
 }
+
+/// Cells of the guide tables that replace binary searches (a few nodes per
+/// cell on the default 561-angle grid).
+const GUIDE: usize = 1024;
 
 impl TabulatedPhaseMatrix {
     /// Builds the table from scattering angles `angles_deg` (degrees,
@@ -154,9 +162,50 @@ impl TabulatedPhaseMatrix {
                 angles_deg[n - 1 - i]
             )));
         }
-        let inv_dmu: Vec<f64> = mu.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect();
         let reversed = |v: &[f64]| v.iter().rev().copied().collect::<Vec<f64>>();
-        let (mut p11, mut p12, mut p33, mut p34) = (reversed(p11), reversed(p12), reversed(p33), reversed(p34));
+        Ok(Self::on_nodes(
+            mu,
+            reversed(p11),
+            reversed(p12),
+            reversed(p33),
+            reversed(p34),
+        ))
+    }
+
+    /// The σ-weighted mixture Σ w_k·T_k of tables on the same μ nodes
+    /// (weights positive, at least one table): linear in μ between the
+    /// nodes like its parts, so it is exactly their weighted sum
+    /// everywhere (renormalised, by a factor 1 to rounding when the
+    /// weights sum to 1).
+    pub fn mixture(parts: &[(&TabulatedPhaseMatrix, f64)]) -> TabulatedPhaseMatrix {
+        let first = parts[0].0;
+        assert!(parts.iter().all(|(t, _)| t.mu == first.mu), "tables on different nodes");
+        let n = first.mu.len();
+        let sum = |get: fn(&TabulatedPhaseMatrix) -> &[f64]| {
+            (0..n)
+                .map(|i| parts.iter().map(|(t, w)| w * get(t)[i]).sum::<f64>())
+                .collect::<Vec<f64>>()
+        };
+        Self::on_nodes(
+            first.mu.clone(),
+            sum(|t| &t.p11),
+            sum(|t| &t.p12),
+            sum(|t| &t.p33),
+            sum(|t| &t.p34),
+        )
+    }
+
+    /// The table of checked nodes (μ strictly ascending from −1 to 1, P11
+    /// positive): normalisation, CDF, mean cosine and guide tables.
+    fn on_nodes(
+        mu: Vec<f64>,
+        mut p11: Vec<f64>,
+        mut p12: Vec<f64>,
+        mut p33: Vec<f64>,
+        mut p34: Vec<f64>,
+    ) -> TabulatedPhaseMatrix {
+        let n = mu.len();
+        let inv_dmu: Vec<f64> = mu.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect();
 
         // Exact integral of the piecewise-linear P11: ½∫P11 dμ per segment is
         // ¼(p_i + p_{i+1})(μ_{i+1} − μ_i).
@@ -184,7 +233,24 @@ impl TabulatedPhaseMatrix {
                 })
                 .sum::<f64>();
 
-        Ok(TabulatedPhaseMatrix {
+        // Guide tables: the segment where each cell of s = sin(Θ/2) =
+        // √((1 − μ)/2) (about Θ/2, so the fine forward nodes spread over
+        // cells) starts, at the cell's smallest μ; and where each cell of
+        // the CDF starts.
+        let segment_of_mu = |m: f64| mu.partition_point(|&x| x <= m).clamp(1, n - 1) - 1;
+        let guide_mu = (0..GUIDE)
+            .map(|c| {
+                let s = (c + 1) as f64 / GUIDE as f64;
+                segment_of_mu(1.0 - 2.0 * s * s) as u32
+            })
+            .collect();
+        let guide_cdf = (0..GUIDE)
+            .map(|c| {
+                let u = c as f64 / GUIDE as f64;
+                (cdf.partition_point(|&x| x <= u).clamp(1, n - 1) - 1) as u32
+            })
+            .collect();
+        TabulatedPhaseMatrix {
             mu,
             inv_dmu,
             p11,
@@ -194,7 +260,9 @@ impl TabulatedPhaseMatrix {
             cdf,
             mean_cosine,
             renormalization,
-        })
+            guide_mu,
+            guide_cdf,
+        }
     }
 
     /// The table of a Mie computation ([`crate::physics::mie`]), whose grid
@@ -226,7 +294,17 @@ impl TabulatedPhaseMatrix {
     #[inline]
     fn segment(&self, cos_theta: f64) -> usize {
         let n = self.mu.len();
-        self.mu.partition_point(|&m| m <= cos_theta).clamp(1, n - 1) - 1
+        let s = ((1.0 - cos_theta) * 0.5).max(0.0).sqrt();
+        let cell = ((s * GUIDE as f64) as usize).min(GUIDE - 1);
+        let mut i = self.guide_mu[cell] as usize;
+        // The cell's smallest μ is at most cos Θ, up to rounding of s.
+        while i > 0 && self.mu[i] > cos_theta {
+            i -= 1;
+        }
+        while i + 2 < n && self.mu[i + 1] <= cos_theta {
+            i += 1;
+        }
+        i
     }
 
     /// P11 at `cos_theta` on segment `i`: the one formula both evaluation
@@ -305,7 +383,11 @@ impl TabulatedPhaseMatrix {
     #[inline]
     pub fn sample(&self, u: [f64; 2]) -> PhaseSample {
         let n = self.cdf.len();
-        let i = self.cdf.partition_point(|&c| c <= u[0]).clamp(1, n - 1) - 1;
+        let cell = ((u[0] * GUIDE as f64) as usize).min(GUIDE - 1);
+        let mut i = self.guide_cdf[cell] as usize;
+        while i + 2 < n && self.cdf[i + 1] <= u[0] {
+            i += 1;
+        }
         let r = (u[0] - self.cdf[i]).max(0.0);
         let p0 = self.p11[i];
         let s = (self.p11[i + 1] - p0) * self.inv_dmu[i];
@@ -408,6 +490,57 @@ mod tests {
             ("water sphere x = 15".to_string(), water),
             ("HG g = −0.7".to_string(), p11_table("hg", &grid, |mu| hg(-0.7, mu))),
         ]
+    }
+
+    #[test]
+    fn guide_tables_find_the_segments_binary_search_finds() {
+        // Every node, its neighbours in f64, and random μ and u, on the
+        // test tables: the guided searches return what a binary search does.
+        let mut rng = Pcg64Mcg::seed_from_u64(91);
+        for (name, t) in test_tables() {
+            let n = t.mu.len();
+            let binary_mu = |m: f64| t.mu.partition_point(|&x| x <= m).clamp(1, n - 1) - 1;
+            let binary_u = |u: f64| t.cdf.partition_point(|&x| x <= u).clamp(1, n - 1) - 1;
+            let mut mus: Vec<f64> = t.mu.iter().flat_map(|&m| [m, m.next_up(), m.next_down()]).collect();
+            mus.extend((0..20_000).map(|_| 2.0 * rng.random::<f64>() - 1.0));
+            mus.extend((0..20_000).map(|_| 1.0 - 1e-4 * rng.random::<f64>()));
+            for m in mus.into_iter().map(|m| m.clamp(-1.0, 1.0)) {
+                assert_eq!(t.segment(m), binary_mu(m), "{name}: μ {m}");
+            }
+            for k in 0..50_000 {
+                let u = if k < t.cdf.len() {
+                    t.cdf[k].min(0.999_999_999)
+                } else {
+                    rng.random::<f64>()
+                };
+                let s = t.sample([u, 0.0]);
+                let i = binary_u(u);
+                assert!(s.cos_theta >= t.mu[i] && s.cos_theta <= t.mu[i + 1], "{name}: u {u}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_mixture_of_tables_is_their_weighted_sum() {
+        let tables = test_tables();
+        let (a, b) = (&tables[0].1, &tables[1].1);
+        let m = TabulatedPhaseMatrix::mixture(&[(a, 0.3), (b, 0.7)]);
+        assert!((m.renormalization() - 1.0).abs() < 1e-12);
+        for k in 0..=400 {
+            let mu = -1.0 + k as f64 / 200.0;
+            let (x, y, z) = (m.matrix(mu), a.matrix(mu), b.matrix(mu));
+            for (got, want) in [
+                (x.p11, 0.3 * y.p11 + 0.7 * z.p11),
+                (x.p12, 0.3 * y.p12 + 0.7 * z.p12),
+                (x.p33, 0.3 * y.p33 + 0.7 * z.p33),
+                (x.p34, 0.3 * y.p34 + 0.7 * z.p34),
+            ] {
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "μ {mu}: {got} vs {want}"
+                );
+            }
+        }
     }
 
     /// Two-point Gauss–Legendre nodes on [a, b] (exact for cubics).

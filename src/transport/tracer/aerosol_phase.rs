@@ -5,17 +5,22 @@
 //! a layer scatters A_t·k_sca,t(λ)·P_t(λ, Θ). Between the tabulated
 //! wavelengths λ_i < λ < λ_{i+1} (fraction f), k_sca and k_sca·P are
 //! interpolated linearly, as k_ext, k_sca and g·k_sca are
-//! ([`crate::physics::aerosol`]): so the term is the sum of two tables,
-//! A_t·(1 − f)·k_sca,t(λ_i)·P_t(λ_i) and A_t·f·k_sca,t(λ_{i+1})·P_t(λ_{i+1}),
-//! and the point's aerosol phase matrix is the σ_s-weighted sum of at most
-//! two tables per component with mass there. Sampling picks one table with
+//! ([`crate::physics::aerosol`]). So with the layer's scattering at each
+//! tabulated wavelength, S_i = Σ_t A_t·k_sca,t(λ_i), and its combined table
+//! there, C_i = Σ_t A_t·k_sca,t(λ_i)·P_t(λ_i)/S_i (built once per scene:
+//! piecewise linear in μ like its parts, so exactly their sum), the
+//! aerosol's phase matrix at λ is
+//!
+//! P(λ) = [(1 − f)·S_i·C_i + f·S_{i+1}·C_{i+1}] / [(1 − f)·S_i + f·S_{i+1}],
+//!
+//! two tables whatever the number of components. Sampling picks one with
 //! its weight and inverts its CDF, so the density is exactly the mixture's
 //! P11/(4π).
 
 use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::{SpectralTerms, Spectrum};
 use crate::physics::data::bracket;
-use crate::polarization::phase::{MAX_TABULATED, PhaseMixture};
+use crate::polarization::phase::PhaseMixture;
 use crate::polarization::phase_table_set::PhaseTableSet;
 use crate::polarization::tabulated_phase::TabulatedPhaseMatrix;
 
@@ -23,41 +28,35 @@ use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 use super::vertex::phase_mixture;
 
-/// One aerosol term with phase tables.
-#[derive(Debug, Clone)]
-struct PhaseTerm {
-    /// Its tabulated wavelengths (nm), ascending.
-    wavelengths_nm: Vec<f64>,
-    /// The index in the set of its table at `wavelengths_nm[0]` (the
-    /// others follow).
-    first: usize,
-    /// k_sca per unit amount at each tabulated wavelength.
-    k_sca: Vec<f64>,
-}
-
-/// A scene's aerosol phase tables: every term's tables, and which terms
-/// have amount in each layer.
+/// A scene's aerosol phase tables: each layer's combined table at every
+/// tabulated wavelength, and its scattering there.
 #[derive(Debug, Clone)]
 pub(super) struct AerosolPhases {
     pub(super) tables: PhaseTableSet,
-    terms: Vec<PhaseTerm>,
-    /// Per layer: (phase term, amount) of the terms with amount there.
-    layers: Vec<Vec<(usize, f64)>>,
+    /// The tabulated wavelengths (nm), ascending, the same for every term.
+    wavelengths_nm: Vec<f64>,
+    /// Per layer: the index of its table at `wavelengths_nm[0]` (the
+    /// others follow), `None` without aerosol.
+    layer_first: Vec<Option<usize>>,
+    /// S_i per layer and tabulated wavelength (`[layer·wavelengths + i]`).
+    layer_sca: Vec<f64>,
 }
 
-/// Where a channel's wavelength lies in one phase term's tables: the
-/// lower table and the weight of the upper one.
+/// Where a channel's wavelength lies in the tables: the lower tabulated
+/// wavelength and the weight f of the upper one.
 pub(super) type PhaseNode = (usize, f64);
 
 impl AerosolPhases {
-    /// The tables of the terms that have them (`None` if none has): the
-    /// aerosol then scatters by Henyey–Greenstein. The atmosphere checked
-    /// the tables when it was built (`atmosphere::check_phase_tables`).
+    /// The tables of the terms that have them (`None` if none has: the
+    /// aerosol then scatters by Henyey–Greenstein). The atmosphere checked
+    /// the tables when it was built (`atmosphere::check_phase_tables`:
+    /// valid samplers on one angle grid, one wavelength grid).
     pub(super) fn of_terms(terms: &SpectralTerms, layers: usize) -> Option<AerosolPhases> {
-        let mut tables = Vec::new();
-        let mut phase_terms = Vec::new();
-        let mut term_index = Vec::new();
-        for (k, term) in terms.terms.iter().enumerate() {
+        // Per term with tables: its amount, its tables and k_sca at each
+        // tabulated wavelength.
+        let mut parts: Vec<(&[f64], Vec<TabulatedPhaseMatrix>, Vec<f64>)> = Vec::new();
+        let mut wavelengths_nm: Option<&[f64]> = None;
+        for term in &terms.terms {
             let Spectrum::Aerosol {
                 component,
                 rh,
@@ -66,94 +65,94 @@ impl AerosolPhases {
             else {
                 continue;
             };
-            let first = tables.len();
-            for (lambda, m) in phase.wavelengths_nm.iter().zip(&phase.matrices) {
-                let name = format!("{} at {lambda} nm", phase.component);
-                tables.push(
-                    TabulatedPhaseMatrix::from_mie(&name, m)
-                        .expect("the atmosphere checked every phase table when it was built"),
-                );
-            }
+            assert!(
+                wavelengths_nm.is_none_or(|w| w == phase.wavelengths_nm),
+                "the atmosphere checked that every phase table has the same wavelengths"
+            );
+            wavelengths_nm = Some(&phase.wavelengths_nm);
+            let tables = phase
+                .wavelengths_nm
+                .iter()
+                .zip(&phase.matrices)
+                .map(|(lambda, m)| {
+                    TabulatedPhaseMatrix::from_mie(&format!("{} at {lambda} nm", phase.component), m)
+                        .expect("the atmosphere checked every phase table when it was built")
+                })
+                .collect();
             let k_sca = phase
                 .wavelengths_nm
                 .iter()
                 .map(|&l| component.optics(l, *rh).map_or(0.0, |o| o.k_sca))
                 .collect();
-            phase_terms.push(PhaseTerm {
-                wavelengths_nm: phase.wavelengths_nm.clone(),
-                first,
-                k_sca,
-            });
-            term_index.push(k);
+            parts.push((&term.amount, tables, k_sca));
         }
-        if phase_terms.is_empty() {
-            return None;
-        }
-        let per_layer = (0..layers)
-            .map(|l| {
-                term_index
+        let wavelengths_nm = wavelengths_nm?.to_vec();
+        let nw = wavelengths_nm.len();
+        let mut tables = Vec::new();
+        let mut layer_first = Vec::with_capacity(layers);
+        let mut layer_sca = vec![0.0; layers * nw];
+        for l in 0..layers {
+            let present: Vec<_> = parts.iter().filter(|p| p.0[l] > 0.0).collect();
+            if present.is_empty() {
+                layer_first.push(None);
+                continue;
+            }
+            layer_first.push(Some(tables.len()));
+            for i in 0..nw {
+                let weighted: Vec<(&TabulatedPhaseMatrix, f64)> =
+                    present.iter().map(|p| (&p.1[i], p.0[l] * p.2[i])).collect();
+                let sca: f64 = weighted.iter().map(|w| w.1).sum();
+                layer_sca[l * nw + i] = sca;
+                let normalised: Vec<_> = weighted
                     .iter()
-                    .enumerate()
-                    .filter_map(|(p, &k)| {
-                        let a = terms.terms[k].amount[l];
-                        (a != 0.0).then_some((p, a))
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect::<Vec<_>>();
-        assert!(
-            per_layer.iter().all(|l| 2 * l.len() <= MAX_TABULATED),
-            "one humidity per component and layer: at most {} tables",
-            MAX_TABULATED
-        );
+                    .filter(|w| w.1 > 0.0)
+                    .map(|&(t, w)| (t, w / sca))
+                    .collect();
+                tables.push(if normalised.is_empty() {
+                    weighted[0].0.clone()
+                } else {
+                    TabulatedPhaseMatrix::mixture(&normalised)
+                });
+            }
+        }
         Some(AerosolPhases {
             tables: PhaseTableSet::new(tables).expect("the atmosphere checked that the tables share one angle grid"),
-            terms: phase_terms,
-            layers: per_layer,
+            wavelengths_nm,
+            layer_first,
+            layer_sca,
         })
     }
 
-    /// The number of terms with tables.
-    pub(super) fn term_count(&self) -> usize {
-        self.terms.len()
+    /// Where `lambda_nm` lies in the tabulated wavelengths (clamped to
+    /// their range; the atmosphere checks the channels' wavelengths
+    /// against the components' data).
+    pub(super) fn node(&self, lambda_nm: f64) -> PhaseNode {
+        let wl = &self.wavelengths_nm;
+        bracket(wl, lambda_nm.clamp(wl[0], wl[wl.len() - 1])).unwrap_or((0, 0.0))
     }
 
-    /// Each phase term's place at wavelength `lambda_nm`, into `out`
-    /// (clamped to its tables' range; the atmosphere checks the channels'
-    /// wavelengths against the components' data).
-    pub(super) fn nodes_into(&self, lambda_nm: f64, out: &mut [PhaseNode]) {
-        for (o, t) in out.iter_mut().zip(&self.terms) {
-            let wl = &t.wavelengths_nm;
-            let l = lambda_nm.clamp(wl[0], wl[wl.len() - 1]);
-            *o = bracket(wl, l).unwrap_or((0, 0.0));
-        }
-    }
-
-    /// Adds the tables of `layer` to `mixture` for a channel at `nodes`
-    /// (its [`AerosolPhases::nodes_into`]), their weights summing to
+    /// Adds the tables of `layer` to `mixture` for a channel at `node`
+    /// (its [`AerosolPhases::node`]), their weights summing to
     /// `aerosol_weight` (the aerosol's σ_s share at the point).
-    pub(super) fn add_to(&self, mixture: &mut PhaseMixture, layer: usize, nodes: &[PhaseNode], aerosol_weight: f64) {
-        let mut parts = [(0usize, 0.0f64); MAX_TABULATED];
-        let mut len = 0;
-        let mut total = 0.0;
-        for &(p, amount) in &self.layers[layer] {
-            let t = &self.terms[p];
-            let (i, f) = nodes[p];
-            for (j, w) in [(i, 1.0 - f), (i + 1, f)] {
-                if w > 0.0 && j < t.k_sca.len() {
-                    let x = amount * w * t.k_sca[j];
-                    parts[len] = (t.first + j, x);
-                    len += 1;
-                    total += x;
-                }
-            }
-        }
+    #[inline]
+    pub(super) fn add_to(&self, mixture: &mut PhaseMixture, layer: usize, (i, f): PhaseNode, aerosol_weight: f64) {
+        let Some(first) = self.layer_first[layer] else {
+            return;
+        };
+        let nw = self.wavelengths_nm.len();
+        let sca = &self.layer_sca[layer * nw..(layer + 1) * nw];
+        let lower = (1.0 - f) * sca[i];
+        let upper = if f > 0.0 && i + 1 < nw { f * sca[i + 1] } else { 0.0 };
+        let total = lower + upper;
         if total <= 0.0 {
             return;
         }
         let scale = aerosol_weight / total;
-        for &(k, x) in &parts[..len] {
-            mixture.push_tabulated(k, x * scale);
+        if lower > 0.0 {
+            mixture.push_tabulated(first + i, lower * scale);
+        }
+        if upper > 0.0 {
+            mixture.push_tabulated(first + i + 1, upper * scale);
         }
     }
 }
@@ -186,13 +185,7 @@ impl Scene {
         }
         let inv = 1.0 / sigma_s;
         let mut m = PhaseMixture::new(c.sigma_rayleigh * inv, c.rayleigh_depolarization, 0.0, c.aerosol_g);
-        let n = phases.term_count();
-        phases.add_to(
-            &mut m,
-            layer,
-            &spectra.phase_nodes[w * n..(w + 1) * n],
-            c.sigma_aerosol_sca * inv,
-        );
+        phases.add_to(&mut m, layer, spectra.phase_nodes[w], c.sigma_aerosol_sca * inv);
         m
     }
 
@@ -203,11 +196,10 @@ impl Scene {
         let Some(phases) = &self.aerosol_phases else {
             return;
         };
-        let n = phases.term_count();
-        spectra.phase_nodes.resize(self.channels.len() * n, (0, 0.0));
-        for w in 0..self.channels.len() {
-            phases.nodes_into(lambda(w), &mut spectra.phase_nodes[w * n..(w + 1) * n]);
-        }
+        spectra.phase_nodes.clear();
+        spectra
+            .phase_nodes
+            .extend((0..self.channels.len()).map(|w| phases.node(lambda(w))));
     }
 }
 
@@ -219,64 +211,79 @@ mod tests {
     use crate::atmosphere::spectral_terms::Term;
     use crate::physics::aerosol::Component;
 
-    /// waso at 50 % in one layer and inso in two: the tables of a channel
-    /// between two tabulated wavelengths are the two nodes' tables weighted
-    /// by amount·(1 − f)·k_sca(λ_i) and amount·f·k_sca(λ_{i+1}), so that the
-    /// mixture's P11 is the k_sca-weighted interpolation the module states.
+    /// waso at 50 % and inso in layer 0, inso alone in layer 1, none in
+    /// layer 2: at 520 nm, halfway between the 500 and 540 nm tables, the
+    /// aerosol's phase matrix is Σ_t A_t·[½k_t(500)·P_t(500) + ½k_t(540)·P_t(540)]
+    /// over Σ_t A_t·[½k_t(500) + ½k_t(540)], computed here from the
+    /// components' own tables.
     #[test]
-    fn a_wavelength_between_tables_mixes_them_by_scattering() {
-        let term = |name: &str, rh: usize, amount: Vec<f64>| {
+    fn the_layer_tables_give_the_k_sca_weighted_interpolation() {
+        let load = |name: &str, rh: usize| {
             let component = Component::builtin(name).unwrap().unwrap();
-            let phase = Some(Arc::new(component.phase_tables(rh).unwrap()));
-            Term {
-                amount,
-                spectrum: Spectrum::Aerosol {
-                    component: Arc::new(component),
-                    rh,
-                    phase,
-                },
-            }
+            let phase = component.phase_tables(rh).unwrap();
+            (component, phase)
+        };
+        let ((waso, waso_p), (inso, inso_p)) = (load("waso", 1), load("inso", 0));
+        let term = |c: &Component, p: &crate::physics::mie::tables::PhaseTables, rh, amount| Term {
+            amount,
+            spectrum: Spectrum::Aerosol {
+                component: Arc::new(c.clone()),
+                rh,
+                phase: Some(Arc::new(p.clone())),
+            },
         };
         let terms = SpectralTerms {
-            terms: vec![term("waso", 1, vec![2e-5, 0.0]), term("inso", 0, vec![1e-5, 3e-6])],
+            terms: vec![
+                term(&waso, &waso_p, 1, vec![2e-5, 0.0, 0.0]),
+                term(&inso, &inso_p, 0, vec![1e-5, 3e-6, 0.0]),
+            ],
         };
-        let phases = AerosolPhases::of_terms(&terms, 2).unwrap();
-        assert_eq!(phases.term_count(), 2);
-        let mut nodes = [(0, 0.0); 2];
-        // 520 nm: halfway between the 500 and 540 nm tables.
-        phases.nodes_into(520.0, &mut nodes);
-        let (i, f) = nodes[0];
-        assert_eq!((phases.terms[0].wavelengths_nm[i], f), (500.0, 0.5));
+        let phases = AerosolPhases::of_terms(&terms, 3).unwrap();
+        let node = phases.node(520.0);
+        assert_eq!((phases.wavelengths_nm[node.0], node.1), (500.0, 0.5));
         let mut m = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
-        phases.add_to(&mut m, 0, &nodes, 0.6);
-        assert_eq!(m.tabulated().len(), 4);
-        let sum: f64 = m.tabulated().iter().map(|t| t.1).sum();
-        assert!((sum - 0.6).abs() < 1e-15);
-        let waso = Component::builtin("waso").unwrap().unwrap();
-        let inso = Component::builtin("inso").unwrap().unwrap();
+        phases.add_to(&mut m, 0, node, 0.6);
+        assert_eq!(m.tabulated().len(), 2);
+        assert!((m.tabulated().iter().map(|t| t.1).sum::<f64>() - 0.6).abs() < 1e-15);
+        let table = |p: &crate::physics::mie::tables::PhaseTables, l: f64| {
+            let i = p.wavelengths_nm.iter().position(|&w| w == l).unwrap();
+            TabulatedPhaseMatrix::from_mie("t", &p.matrices[i]).unwrap()
+        };
         let k = |c: &Component, rh, l| c.optics(l, rh).unwrap().k_sca;
-        let parts = [
-            2e-5 * 0.5 * k(&waso, 1, 500.0),
-            2e-5 * 0.5 * k(&waso, 1, 540.0),
-            1e-5 * 0.5 * k(&inso, 0, 500.0),
-            1e-5 * 0.5 * k(&inso, 0, 540.0),
+        let direct = [
+            (table(&waso_p, 500.0), 2e-5 * 0.5 * k(&waso, 1, 500.0)),
+            (table(&waso_p, 540.0), 2e-5 * 0.5 * k(&waso, 1, 540.0)),
+            (table(&inso_p, 500.0), 1e-5 * 0.5 * k(&inso, 0, 500.0)),
+            (table(&inso_p, 540.0), 1e-5 * 0.5 * k(&inso, 0, 540.0)),
         ];
-        let total: f64 = parts.iter().sum();
-        for ((_, w), p) in m.tabulated().iter().zip(parts) {
-            assert!((w - 0.6 * p / total).abs() < 1e-15, "{w} vs {}", 0.6 * p / total);
+        let total: f64 = direct.iter().map(|d| d.1).sum();
+        let rayleigh = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
+        for j in 0..=100 {
+            let mu = -1.0 + j as f64 / 50.0;
+            let got = m.matrix(&phases.tables.locate(mu));
+            let r = rayleigh.matrix(&phases.tables.locate(mu));
+            let want = |e: fn(&crate::polarization::stokes::PhaseMatrix) -> f64| {
+                e(&r) + 0.6 * direct.iter().map(|(t, w)| w * e(&t.matrix(mu))).sum::<f64>() / total
+            };
+            for (g, w) in [
+                (got.p11, want(|p| p.p11)),
+                (got.p12, want(|p| p.p12)),
+                (got.p33, want(|p| p.p33)),
+                (got.p34, want(|p| p.p34)),
+            ] {
+                assert!((g - w).abs() <= 1e-10 * w.abs().max(1e-3), "μ {mu}: {g} vs {w}");
+            }
         }
-        // The layer's σ_sca at 520 nm is the same sum: k_sca is linear
-        // between the tabulated wavelengths.
+        // σ_sca at 520 nm is the same sum: k_sca is linear between the
+        // tabulated wavelengths.
         let sigma = 2e-5 * k(&waso, 1, 520.0) + 1e-5 * k(&inso, 0, 520.0);
         assert!((sigma - total).abs() < 1e-12 * total);
-        // The second layer holds inso alone.
+        // At a tabulated wavelength one table; none where there is no aerosol.
         let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
-        phases.add_to(&mut m, 1, &nodes, 1.0);
-        assert_eq!(m.tabulated().len(), 2);
-        // At a tabulated wavelength one table per component.
-        phases.nodes_into(540.0, &mut nodes);
-        let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
-        phases.add_to(&mut m, 0, &nodes, 1.0);
-        assert_eq!(m.tabulated().len(), 2);
+        phases.add_to(&mut m, 1, phases.node(540.0), 1.0);
+        assert_eq!(m.tabulated().len(), 1);
+        let mut m = PhaseMixture::new(1.0, 0.0, 0.0, 0.0);
+        phases.add_to(&mut m, 2, node, 0.0);
+        assert!(m.tabulated().is_empty());
     }
 }

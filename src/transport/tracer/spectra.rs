@@ -15,8 +15,8 @@ pub(super) struct ChannelSpectra {
     pub(super) responses: Vec<TermOptics>,
     pub(super) weights: Vec<f64>,
     pub(super) solar: Vec<f64>,
-    /// Where each channel's wavelength lies in each aerosol phase term's
-    /// tables (`[channel·phase terms + term]`; empty without them).
+    /// Where each channel's wavelength lies in the aerosol's tabulated
+    /// wavelengths (empty without phase tables).
     pub(super) phase_nodes: Vec<PhaseNode>,
     /// Where every path shares them (monochromatic channels): each
     /// channel's σ_t per layer (`[channel·layers + layer]`; the layer mean in
