@@ -12,6 +12,7 @@ use crate::io::exr::{Channel, wavelength_label, write_exr};
 use crate::io::preview::{srgb_preview, write_png};
 use crate::io::sun_table::{SUN_FILE, sun_csv};
 use crate::job::{AtmosphereSource, Job, RadianceUnits, Task};
+use crate::physics::aerosol::AerosolPhase;
 use crate::sensor::camera::{Camera, PixelFilter};
 
 /// The file an image task writes its Stokes images to.
@@ -129,11 +130,26 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
             "sphere (equirectangular) {width}x{height}: x from azimuth +180 to -180 deg, the sun's azimuth at the centre, y from elevation +90 to -90 deg"
         ),
     };
-    let (profile, aerosol) = match &job.source {
-        AtmosphereSource::Profile { profile, aerosol, .. } => {
-            (profile.clone(), aerosol.clone().unwrap_or_else(|| "none".into()))
-        }
-        AtmosphereSource::Layers => ("explicit layers".into(), "explicit layers".into()),
+    let (profile, aerosol, aerosol_phase) = match &job.source {
+        AtmosphereSource::Profile {
+            profile,
+            aerosol,
+            aerosol_phase,
+            ..
+        } => (
+            profile.clone(),
+            aerosol.clone().unwrap_or_else(|| "none".into()),
+            match (aerosol, aerosol_phase) {
+                (None, _) => "none",
+                (Some(_), AerosolPhase::Mie) => "mie: the OPAC components' Mie phase matrices",
+                (Some(_), AerosolPhase::HenyeyGreenstein) => "hg: Henyey-Greenstein with the mixture's g, unpolarised",
+            },
+        ),
+        AtmosphereSource::Layers => (
+            "explicit layers".into(),
+            "explicit layers".into(),
+            "hg: Henyey-Greenstein, unpolarised",
+        ),
     };
     let units = match spec.units {
         RadianceUnits::Normalized => "radiance per unit solar irradiance, 1/sr",
@@ -168,6 +184,7 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         ("visibility_km".into(), task.atmosphere.visibility.map_or("none".into(), |v| format!("{}", v.ground_km))),
         ("profile".into(), profile),
         ("aerosol".into(), aerosol),
+        ("aerosol_phase".into(), aerosol_phase.into()),
         ("planet_radius_km".into(), format!("{}", job.planet.radius_km)),
         ("top_km".into(), format!("{}", job.planet.top_km)),
         ("geometry".into(), format!("{:?}", job.planet.geometry)),

@@ -17,6 +17,7 @@ use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
 use crate::job::spectrum::Channel;
 use crate::job::transmittance::TransmittanceSpec;
+use crate::physics::aerosol::AerosolPhase;
 use crate::physics::ozone::OzoneModel;
 use crate::physics::rayleigh::RayleighModel;
 use crate::physics::solar::SolarSpectrum;
@@ -62,6 +63,8 @@ pub enum AtmosphereSource {
         ozone: OzoneModel,
         rayleigh: RayleighModel,
         aerosol: Option<String>,
+        /// How the OPAC aerosol scatters.
+        aerosol_phase: AerosolPhase,
     },
     Layers,
 }
@@ -377,6 +380,7 @@ impl Job {
                 ozone: spec.ozone,
                 rayleigh: spec.rayleigh,
                 aerosol: spec.aerosol.as_ref().map(|a| a.mixture.name.clone()),
+                aerosol_phase: spec.aerosol_phase,
             };
             (source, atmospheres, top_km)
         };

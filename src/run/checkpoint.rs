@@ -4,10 +4,13 @@
 //! Both carry the job text, so `merge` needs nothing but the output
 //! directory, and both are written atomically (temporary file, rename).
 //!
-//! Format (little-endian), version 2 (version 1 counted an image's work in
-//! samples per pixel, version 2 in items, see [`crate::film::image::ActivePixels`]):
+//! Format (little-endian), version 3 (version 1 counted an image's work in
+//! samples per pixel, version 2 in items, see [`crate::film::image::ActivePixels`];
+//! version 3 has the layout of 2, and marks sums made since OPAC aerosol
+//! scatters by Mie phase matrices by default, so that no unit mixes them
+//! with Henyey–Greenstein sums of the same job text):
 //! ```text
-//! "ATMOSIM-STATE-2\n"                       16 bytes
+//! "ATMOSIM-STATE-3\n"                       16 bytes
 //! job hash, job file, job directory, job text: each u64 length + UTF-8,
 //!                                           zero-padded to whole 8-byte words
 //! task, shard index, shard count            3 × u64
@@ -30,9 +33,10 @@ use crate::io::atomic::write_atomic_with;
 use crate::run::layout::UnitState;
 use crate::run::shard::Shard;
 
-const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-2\n";
-/// The header of the previous format, refused with its own message.
+const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-3\n";
+/// The headers of the previous formats, refused with their own messages.
 const MAGIC_V1: &[u8; 16] = b"ATMOSIM-STATE-1\n";
+const MAGIC_V2: &[u8; 16] = b"ATMOSIM-STATE-2\n";
 
 /// A unit's state with the job it belongs to.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,6 +88,13 @@ impl StateFile {
             return Err(bad(
                 "written by an older atmosim (state format 1), which counted an image's work \
                             differently; finish it with that version, or render the unit again",
+            ));
+        }
+        if bytes.starts_with(MAGIC_V2) {
+            return Err(bad(
+                "written by an older atmosim (state format 2), whose OPAC aerosol scattered by \
+                 Henyey–Greenstein; finish it with that version (or with aerosol_phase = \"hg\" in a \
+                 new render), or render the unit again",
             ));
         }
         if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
@@ -323,6 +334,19 @@ mod tests {
             back.state.tallies[0][0].sum[3].to_bits(),
             f.state.tallies[0][0].sum[3].to_bits()
         );
+    }
+
+    #[test]
+    fn states_of_the_older_formats_are_refused_with_their_reason() {
+        // A format-2 file (same layout, sums made with Henyey–Greenstein
+        // OPAC aerosol) is named as such, not resumed.
+        let mut bytes = sample().to_bytes();
+        bytes[..16].copy_from_slice(MAGIC_V2);
+        let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
+        assert!(e.contains("state format 2") && e.contains("Henyey–Greenstein"), "{e}");
+        bytes[..16].copy_from_slice(MAGIC_V1);
+        let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
+        assert!(e.contains("state format 1"), "{e}");
     }
 
     #[test]

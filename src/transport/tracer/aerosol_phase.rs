@@ -17,16 +17,11 @@
 //! its weight and inverts its CDF, so the density is exactly the mixture's
 //! P11/(4π).
 
-use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::{SpectralTerms, Spectrum};
 use crate::physics::data::bracket;
-use crate::polarization::phase::PhaseMixture;
+use crate::polarization::phase_mixture::PhaseMixture;
 use crate::polarization::phase_table_set::PhaseTableSet;
 use crate::polarization::tabulated_phase::TabulatedPhaseMatrix;
-
-use super::scene::Scene;
-use super::spectra::ChannelSpectra;
-use super::vertex::phase_mixture;
 
 /// A scene's aerosol phase tables: each layer's combined table at every
 /// tabulated wavelength, and its scattering there.
@@ -154,52 +149,6 @@ impl AerosolPhases {
         if upper > 0.0 {
             mixture.push_tabulated(first + i + 1, upper * scale);
         }
-    }
-}
-
-impl Scene {
-    /// The aerosol's phase tables (none without tabulated aerosol).
-    #[inline]
-    pub(super) fn phase_tables(&self) -> &PhaseTableSet {
-        static NONE: PhaseTableSet = PhaseTableSet::EMPTY;
-        self.aerosol_phases.as_ref().map_or(&NONE, |p| &p.tables)
-    }
-
-    /// The σ_s-weighted phase mixture of channel `w` at a point of `layer`
-    /// with coefficients `c`: Rayleigh and the aerosol's tables, or
-    /// Henyey–Greenstein with the aerosol's g where it has none.
-    #[inline]
-    pub(super) fn phase_mixture(
-        &self,
-        spectra: &ChannelSpectra,
-        layer: usize,
-        w: usize,
-        c: &PointOptics,
-    ) -> PhaseMixture {
-        let Some(phases) = &self.aerosol_phases else {
-            return phase_mixture(c);
-        };
-        let sigma_s = c.sigma_s();
-        if sigma_s <= 0.0 || c.sigma_aerosol_sca <= 0.0 {
-            return phase_mixture(c);
-        }
-        let inv = 1.0 / sigma_s;
-        let mut m = PhaseMixture::new(c.sigma_rayleigh * inv, c.rayleigh_depolarization, 0.0, c.aerosol_g);
-        phases.add_to(&mut m, layer, spectra.phase_nodes[w], c.sigma_aerosol_sca * inv);
-        m
-    }
-
-    /// Fills the spectra's phase nodes for the channels' wavelengths
-    /// `lambda(channel)`.
-    #[inline]
-    pub(super) fn refresh_phase_nodes(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
-        let Some(phases) = &self.aerosol_phases else {
-            return;
-        };
-        spectra.phase_nodes.clear();
-        spectra
-            .phase_nodes
-            .extend((0..self.channels.len()).map(|w| phases.node(lambda(w))));
     }
 }
 

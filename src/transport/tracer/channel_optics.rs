@@ -12,8 +12,12 @@ use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
 use crate::transport::medium::shape_integrals;
 
+use crate::polarization::phase_mixture::PhaseMixture;
+use crate::polarization::phase_table_set::PhaseTableSet;
+
 use super::scene::Scene;
 use super::spectra::{Basis, ChannelSpectra};
+use super::vertex::phase_mixture;
 
 impl Scene {
     /// Fills the spectra's solar factors for the channels' wavelengths
@@ -218,5 +222,51 @@ impl Scene {
         for ((t, s), shape) in tau.iter_mut().zip(sigma).zip(&self.basis_shapes) {
             *t += s * integrals[shape.index()];
         }
+    }
+}
+
+impl Scene {
+    /// The aerosol's phase tables (none without tabulated aerosol).
+    #[inline]
+    pub(super) fn phase_tables(&self) -> &PhaseTableSet {
+        static NONE: PhaseTableSet = PhaseTableSet::EMPTY;
+        self.aerosol_phases.as_ref().map_or(&NONE, |p| &p.tables)
+    }
+
+    /// The σ_s-weighted phase mixture of channel `w` at a point of `layer`
+    /// with coefficients `c`: Rayleigh and the aerosol's tables, or
+    /// Henyey–Greenstein with the aerosol's g where it has none.
+    #[inline]
+    pub(super) fn phase_mixture(
+        &self,
+        spectra: &ChannelSpectra,
+        layer: usize,
+        w: usize,
+        c: &PointOptics,
+    ) -> PhaseMixture {
+        let Some(phases) = &self.aerosol_phases else {
+            return phase_mixture(c);
+        };
+        let sigma_s = c.sigma_s();
+        if sigma_s <= 0.0 || c.sigma_aerosol_sca <= 0.0 {
+            return phase_mixture(c);
+        }
+        let inv = 1.0 / sigma_s;
+        let mut m = PhaseMixture::new(c.sigma_rayleigh * inv, c.rayleigh_depolarization, 0.0, c.aerosol_g);
+        phases.add_to(&mut m, layer, spectra.phase_nodes[w], c.sigma_aerosol_sca * inv);
+        m
+    }
+
+    /// Fills the spectra's phase nodes for the channels' wavelengths
+    /// `lambda(channel)`.
+    #[inline]
+    pub(super) fn refresh_phase_nodes(&self, spectra: &mut ChannelSpectra, lambda: impl Fn(usize) -> f64) {
+        let Some(phases) = &self.aerosol_phases else {
+            return;
+        };
+        spectra.phase_nodes.clear();
+        spectra
+            .phase_nodes
+            .extend((0..self.channels.len()).map(|w| phases.node(lambda(w))));
     }
 }

@@ -10,7 +10,7 @@ use crate::atmosphere::optics::PointOptics;
 use crate::geometry::ray::Segment;
 use crate::geometry::shell_exit::ShellExit;
 use crate::job::options::MAX_ALBEDOS;
-use crate::polarization::phase::PhaseMixture;
+use crate::polarization::phase_mixture::PhaseMixture;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 use crate::transport::flight_density::FlightDensity;

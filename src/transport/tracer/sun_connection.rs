@@ -142,7 +142,10 @@ impl Scene {
         let s0 = self.sun.direction;
         let cos0 = (-s0).dot(-ray.dir);
         // Rayleigh's and the aerosol's P11 at the sun's centre per followed
-        // channel, recomputed only when the parameters change.
+        // channel, recomputed only when the parameters change; the
+        // aerosol's by Henyey–Greenstein with its g even where it scatters
+        // by Mie tables (this only shapes the density the point is drawn
+        // from, which the contributions are divided by).
         let mut rayleigh = [(f64::NAN, 0.0); 2];
         let mut aerosol = [(f64::NAN, 0.0); 2];
         let optics = |_: usize, seg: &Segment| {

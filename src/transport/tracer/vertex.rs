@@ -11,7 +11,7 @@ use crate::atmosphere::optics::PointOptics;
 use crate::geometry::basis::orthonormal_basis;
 use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
-use crate::polarization::phase::PhaseMixture;
+use crate::polarization::phase_mixture::PhaseMixture;
 use crate::polarization::stokes::StokesRotation;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
