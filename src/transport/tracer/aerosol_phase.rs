@@ -30,7 +30,10 @@ pub(super) struct AerosolPhases {
     pub(super) tables: PhaseTableSet,
     /// The tabulated wavelengths (nm), ascending, the same for every term.
     wavelengths_nm: Vec<f64>,
-    /// Per layer: the index of its table at `wavelengths_nm[0]` (the
+    /// The tabulated wavelengths tables are built for: `nodes.0..=nodes.1`
+    /// (those the channels' wavelengths lie between).
+    nodes: (usize, usize),
+    /// Per layer: the index of its table at `wavelengths_nm[nodes.0]` (the
     /// others follow), `None` without aerosol.
     layer_first: Vec<Option<usize>>,
     /// S_i per layer and tabulated wavelength (`[layer·wavelengths + i]`).
@@ -46,7 +49,9 @@ impl AerosolPhases {
     /// aerosol then scatters by Henyey–Greenstein). The atmosphere checked
     /// the tables when it was built (`atmosphere::check_phase_tables`:
     /// valid samplers on one angle grid, one wavelength grid).
-    pub(super) fn of_terms(terms: &SpectralTerms, layers: usize) -> Option<AerosolPhases> {
+    /// Tables are built for the tabulated wavelengths around
+    /// `range_nm` (the channels' wavelengths, bands included) only.
+    pub(super) fn of_terms(terms: &SpectralTerms, layers: usize, range_nm: (f64, f64)) -> Option<AerosolPhases> {
         // Per term with tables: its amount, its tables and k_sca at each
         // tabulated wavelength.
         let mut parts: Vec<(&[f64], Vec<TabulatedPhaseMatrix>, Vec<f64>)> = Vec::new();
@@ -83,6 +88,9 @@ impl AerosolPhases {
         }
         let wavelengths_nm = wavelengths_nm?.to_vec();
         let nw = wavelengths_nm.len();
+        let at =
+            |l: f64| bracket(&wavelengths_nm, l.clamp(wavelengths_nm[0], wavelengths_nm[nw - 1])).map_or(0, |b| b.0);
+        let nodes = (at(range_nm.0), (at(range_nm.1) + 1).min(nw - 1));
         let mut tables = Vec::new();
         let mut layer_first = Vec::with_capacity(layers);
         let mut layer_sca = vec![0.0; layers * nw];
@@ -98,6 +106,9 @@ impl AerosolPhases {
                     present.iter().map(|p| (&p.1[i], p.0[l] * p.2[i])).collect();
                 let sca: f64 = weighted.iter().map(|w| w.1).sum();
                 layer_sca[l * nw + i] = sca;
+                if i < nodes.0 || i > nodes.1 {
+                    continue;
+                }
                 let normalised: Vec<_> = weighted
                     .iter()
                     .filter(|w| w.1 > 0.0)
@@ -113,6 +124,7 @@ impl AerosolPhases {
         Some(AerosolPhases {
             tables: PhaseTableSet::new(tables).expect("the atmosphere checked that the tables share one angle grid"),
             wavelengths_nm,
+            nodes,
             layer_first,
             layer_sca,
         })
@@ -123,7 +135,10 @@ impl AerosolPhases {
     /// against the components' data).
     pub(super) fn node(&self, lambda_nm: f64) -> PhaseNode {
         let wl = &self.wavelengths_nm;
-        bracket(wl, lambda_nm.clamp(wl[0], wl[wl.len() - 1])).unwrap_or((0, 0.0))
+        let (lo, hi) = self.nodes;
+        let (i, f) = bracket(wl, lambda_nm.clamp(wl[lo], wl[hi])).unwrap_or((lo, 0.0));
+        // Only the built tables: λ at the top node is its lower end.
+        if i >= hi && hi > lo { (hi - 1, 1.0) } else { (i, f) }
     }
 
     /// Adds the tables of `layer` to `mixture` for a channel at `node`
@@ -143,11 +158,12 @@ impl AerosolPhases {
             return;
         }
         let scale = aerosol_weight / total;
+        let k = first + i - self.nodes.0;
         if lower > 0.0 {
-            mixture.push_tabulated(first + i, lower * scale);
+            mixture.push_tabulated(k, lower * scale);
         }
         if upper > 0.0 {
-            mixture.push_tabulated(first + i + 1, upper * scale);
+            mixture.push_tabulated(k + 1, upper * scale);
         }
     }
 }
@@ -187,7 +203,7 @@ mod tests {
                 term(&inso, &inso_p, 0, vec![1e-5, 3e-6, 0.0]),
             ],
         };
-        let phases = AerosolPhases::of_terms(&terms, 3).unwrap();
+        let phases = AerosolPhases::of_terms(&terms, 3, (300.0, 800.0)).unwrap();
         let node = phases.node(520.0);
         assert_eq!((phases.wavelengths_nm[node.0], node.1), (500.0, 0.5));
         let mut m = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
@@ -234,5 +250,25 @@ mod tests {
         let mut m = PhaseMixture::new(1.0, 0.0, 0.0, 0.0);
         phases.add_to(&mut m, 2, node, 0.0);
         assert!(m.tabulated().is_empty());
+        // Tables only around the channels' wavelengths, with the same
+        // mixtures: 510 to 530 nm needs the 500 and 540 nm tables.
+        let few = AerosolPhases::of_terms(&terms, 3, (510.0, 530.0)).unwrap();
+        assert_eq!(few.tables.len(), 2 * 2);
+        let mut m2 = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
+        few.add_to(&mut m2, 0, few.node(520.0), 0.6);
+        let mut m = PhaseMixture::new(0.4, 0.03, 0.0, 0.0);
+        phases.add_to(&mut m, 0, phases.node(520.0), 0.6);
+        for j in 0..=20 {
+            let mu = -1.0 + j as f64 / 10.0;
+            assert_eq!(m2.matrix(&few.tables.locate(mu)), m.matrix(&phases.tables.locate(mu)));
+        }
+        // One wavelength on a node, and the top of the tables.
+        let one = AerosolPhases::of_terms(&terms, 3, (540.0, 540.0)).unwrap();
+        assert_eq!(one.node(540.0), (one.nodes.0, 0.0));
+        let top = AerosolPhases::of_terms(&terms, 3, (800.0, 800.0)).unwrap();
+        assert_eq!(top.node(800.0), (top.wavelengths_nm.len() - 2, 1.0));
+        let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
+        top.add_to(&mut m, 1, top.node(800.0), 1.0);
+        assert_eq!(m.tabulated(), &[(3, 1.0)]);
     }
 }

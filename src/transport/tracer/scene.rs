@@ -135,7 +135,11 @@ impl Scene {
         };
         let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
         let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
-        let aerosol_phases = AerosolPhases::of_terms(&terms, layers);
+        let range_nm = channels.iter().fold((f64::MAX, f64::MIN), |(lo, hi), c| {
+            let half = 0.5 * c.band_width_nm;
+            (lo.min(c.lambda_nm - half), hi.max(c.lambda_nm + half))
+        });
+        let aerosol_phases = AerosolPhases::of_terms(&terms, layers, range_nm);
         let mut scene = Scene {
             geometry,
             sun,
