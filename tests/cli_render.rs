@@ -110,6 +110,31 @@ fn bench_ratios_report_every_ratio_before_the_throughput_line() {
 }
 
 #[test]
+fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
+    let out = atmosim().args(["bench", "--grid", "--quick"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 1024x512")).collect();
+    assert_eq!(tasks.len(), 3, "{text}");
+    for t in &tasks {
+        assert!(t.contains("340: ") && t.contains("740: "), "{t}");
+    }
+    let last = text.lines().last().unwrap();
+    let figures: Vec<f64> = last
+        .strip_prefix("grid_core_hours_per_task: ")
+        .unwrap()
+        .split(' ')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!(
+        figures.len() == 2 && figures[0] > 0.0 && figures[1] >= figures[0],
+        "{last}"
+    );
+    let out = atmosim().args(["bench", "--grid", "--ratios"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
 fn bench_ends_with_the_throughput_line() {
     let out = atmosim().args(["bench", "--quick", "--threads", "1"]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

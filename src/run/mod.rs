@@ -4,6 +4,7 @@
 pub mod assemble;
 pub mod bench;
 pub mod checkpoint;
+pub mod grid_bench;
 pub mod layout;
 pub mod merge;
 pub mod out_dir;

@@ -1,0 +1,197 @@
+//! `atmosim bench --grid`: what the sky model's grid costs. A representative
+//! subset of `examples/sky_model_grid.toml` rendered at reduced resolution
+//! (full-sphere 64×32 images, 11 bands of 40 nm from 320 nm, albedos 0,
+//! 0.3, 0.6 and 1, polarised, OPAC continental_average with its Mie phase
+//! matrices): sun elevation −4.2, −1, 2, 10, 45 and 90°, visibility 20 and
+//! 131.8 km, observers at 0 and 15 km (`--quick`: −1, 10 and 90°, 20 km,
+//! the ground).
+//!
+//! Per task it reports the core-seconds (wall time × the pool's threads),
+//! the samples per pixel, and per band the median and 99th percentile over
+//! the pixels of the relative standard error of I (the worst over the
+//! albedos above 0). Scaled to the noise target (median ≤ 0.5 %, 99th
+//! percentile ≤ 2 % in every band and albedo above 0) and to 1024×512:
+//!
+//! core-hours = core-seconds × max_b max(median_b/0.005, p99_b/0.02)²
+//!              × (1024·512)/(64·32) / 3600,
+//!
+//! assuming that a pixel's relative error falls as 1/√samples (samples are
+//! independent) and that a pixel of a finer image costs what a pixel of
+//! this one does at the same samples (the box filter averages over the
+//! pixel; per-path cost does not depend on the pixel's size). The last line
+//! is `grid_core_hours_per_task: <mean> <max>` over the tasks.
+
+use std::io::Write;
+use std::time::Instant;
+
+use crate::error::{Error, Result};
+use crate::film::image::SkyImage;
+use crate::job::{Job, Sensor};
+use crate::run::task::render_image;
+
+/// The noise target: median and 99th percentile of the per-pixel relative
+/// standard error of I.
+pub const TARGET_MEDIAN: f64 = 0.005;
+pub const TARGET_P99: f64 = 0.02;
+
+/// The full-size image the figures are scaled to.
+const FULL_PIXELS: f64 = 1024.0 * 512.0;
+
+/// The benchmark's job: the subset (or the quick one) at `samples` per pixel.
+pub fn job_text(quick: bool, samples: u64) -> String {
+    let (suns, visibilities, observers) = if quick {
+        ("[-1.0, 10.0, 90.0]", "[20.0]", "[0.0]")
+    } else {
+        ("[-4.2, -1.0, 2.0, 10.0, 45.0, 90.0]", "[20.0, 131.8]", "[0.0, 15.0]")
+    };
+    format!(
+        "[planet]\nradius_km = 6378.0\ntop_km = 100.0\n\
+         [atmosphere]\nprofile = \"us_standard\"\nozone = \"bogumil\"\naerosol = \"continental_average\"\n\
+         visibility_km = {visibilities}\n\
+         [spectrum]\nwavelengths_nm = [340.0, 380.0, 420.0, 460.0, 500.0, 540.0, 580.0, 620.0, 660.0, 700.0, 740.0]\n\
+         band_width_nm = 40.0\n\
+         [sun]\nelevation_deg = {suns}\n\
+         [observer]\naltitude_km = {observers}\n\
+         [ground]\nalbedo = [0.0, 0.3, 0.6, 1.0]\n\
+         [sensor]\ntype = \"sphere\"\nresolution = [64, 32]\n\
+         [render]\nsamples = {samples}\npolarized = true\nseed = 1\n"
+    )
+}
+
+/// One band's noise in one image: the median and 99th percentile of the
+/// pixels' relative standard error of I, the worst over the albedos > 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BandNoise {
+    pub wavelength_nm: f64,
+    pub median: f64,
+    pub p99: f64,
+}
+
+/// The q-quantile of `v` (sorted in place; nearest rank).
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+    v[i]
+}
+
+/// Per band, the noise of `image` (pixels with I > 0; an image of a band
+/// with no lit pixel gives 0).
+pub fn band_noise(image: &SkyImage) -> Vec<BandNoise> {
+    let mut out: Vec<BandNoise> = Vec::new();
+    for layer in image.layers.iter().filter(|l| l.albedo > 0.0) {
+        let mut rel: Vec<f64> = layer.mean[0]
+            .iter()
+            .zip(&layer.se[0])
+            .filter(|(m, _)| **m > 0.0)
+            .map(|(m, s)| s / m)
+            .collect();
+        let (median, p99) = if rel.is_empty() {
+            (0.0, 0.0)
+        } else {
+            (quantile(&mut rel, 0.5), quantile(&mut rel, 0.99))
+        };
+        match out.iter_mut().find(|b| b.wavelength_nm == layer.wavelength_nm) {
+            Some(b) => {
+                b.median = b.median.max(median);
+                b.p99 = b.p99.max(p99);
+            }
+            None => out.push(BandNoise {
+                wavelength_nm: layer.wavelength_nm,
+                median,
+                p99,
+            }),
+        }
+    }
+    out
+}
+
+/// The factor on the samples that brings every band to the target.
+pub fn samples_factor(noise: &[BandNoise]) -> f64 {
+    noise
+        .iter()
+        .map(|b| (b.median / TARGET_MEDIAN).max(b.p99 / TARGET_P99).powi(2))
+        .fold(0.0, f64::max)
+}
+
+/// Renders the subset on the current rayon pool and writes the report;
+/// returns the mean and largest core-hours per task.
+pub fn run(quick: bool, out: &mut dyn Write) -> Result<(f64, f64)> {
+    let samples = if quick { 64 } else { 256 };
+    let text = job_text(quick, samples);
+    let job = Job::parse(&text, "<grid benchmark>", std::path::Path::new("."))?;
+    let Sensor::Image(camera) = &job.render.sensor else {
+        return Err(Error::data("<grid benchmark>", "the benchmark renders images"));
+    };
+    let threads = rayon::current_num_threads() as f64;
+    let pixels = 64.0 * 32.0;
+    let io = |e: std::io::Error| Error::io(std::path::Path::new("<stdout>"), e);
+    writeln!(
+        out,
+        "grid benchmark: {} tasks, 64x32 full-sphere images, {samples} samples per pixel, 11 bands of 40 nm, \
+         albedos 0 0.3 0.6 1, {threads} threads; relative standard error of I per pixel, worst albedo > 0",
+        job.tasks.len()
+    )
+    .map_err(io)?;
+    let mut hours = Vec::new();
+    for task in &job.tasks {
+        let start = Instant::now();
+        let image = render_image(&job, task, camera, &|_| {}, &|_| {})?;
+        let core_seconds = start.elapsed().as_secs_f64() * threads;
+        let noise = band_noise(&image);
+        let factor = samples_factor(&noise);
+        let h = core_seconds * factor * FULL_PIXELS / pixels / 3600.0;
+        hours.push(h);
+        let bands: Vec<String> = noise
+            .iter()
+            .map(|b| format!("{:.0}: {:.3}/{:.3}", b.wavelength_nm, b.median, b.p99))
+            .collect();
+        writeln!(
+            out,
+            "{}: {core_seconds:.1} core-s, {samples} spp; median/p99 by band {}; to target x{factor:.0} samples: \
+             {h:.1} core-hours at 1024x512",
+            task.name,
+            bands.join(", ")
+        )
+        .map_err(io)?;
+    }
+    let mean = hours.iter().sum::<f64>() / hours.len().max(1) as f64;
+    let max = hours.iter().copied().fold(0.0, f64::max);
+    writeln!(out, "grid_core_hours_per_task: {mean:.1} {max:.1}").map_err(io)?;
+    Ok((mean, max))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::film::image::ImageLayer;
+
+    #[test]
+    fn the_factor_brings_the_worst_band_and_albedo_to_the_target() {
+        // Two albedos of one band: the worse sets it (albedo 0 is left
+        // out); a median of 1 % needs 4× the samples, a 99th percentile
+        // (nearest rank: the 99th of 100) of 6 % needs 9×.
+        let layer = |albedo: f64, rel: &[f64]| ImageLayer {
+            wavelength_nm: 340.0,
+            albedo,
+            mean: [vec![1.0; rel.len()], vec![], vec![], vec![]],
+            se: [rel.to_vec(), vec![], vec![], vec![]],
+            non_finite: 0,
+        };
+        let mut rel = vec![0.01; 100];
+        rel[98] = 0.06;
+        rel[99] = 0.06;
+        let image = SkyImage {
+            width: 10,
+            height: 10,
+            layers: vec![layer(0.0, &[9.0; 100]), layer(0.3, &vec![0.001; 100]), layer(1.0, &rel)],
+        };
+        let noise = band_noise(&image);
+        assert_eq!(noise.len(), 1);
+        assert_eq!((noise[0].median, noise[0].p99), (0.01, 0.06));
+        assert!((samples_factor(&noise) - 9.0).abs() < 1e-12);
+        let job = Job::parse(&job_text(true, 4), "t", std::path::Path::new(".")).unwrap();
+        assert_eq!(job.tasks.len(), 3);
+        let job = Job::parse(&job_text(false, 4), "t", std::path::Path::new(".")).unwrap();
+        assert_eq!(job.tasks.len(), 24);
+    }
+}
