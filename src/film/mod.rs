@@ -4,5 +4,6 @@
 pub mod directions;
 pub mod fluxes;
 pub mod image;
+pub mod quantile;
 pub mod results;
 pub mod tally;

@@ -65,14 +65,17 @@ impl Component {
     /// A built-in component by name: libRadtran's published table where
     /// there is one, else atmosim's own Mie table.
     pub fn builtin(name: &str) -> Option<Result<Component>> {
-        data::builtin(data::OPAC_COMPONENTS, name)
-            .or_else(|| data::builtin(data::OPAC_MIE_OPTICS, name))
-            .map(|t| Self::parse(name, t))
+        Self::builtin_text(name).map(|t| Self::parse(name, t))
     }
 
     /// Whether `name` is a built-in component.
     pub fn is_builtin(name: &str) -> bool {
-        data::builtin(data::OPAC_COMPONENTS, name).is_some() || data::builtin(data::OPAC_MIE_OPTICS, name).is_some()
+        Self::builtin_text(name).is_some()
+    }
+
+    /// The table text of a built-in component (libRadtran's, else ours).
+    fn builtin_text(name: &str) -> Option<&'static str> {
+        data::builtin(data::OPAC_COMPONENTS, name).or_else(|| data::builtin(data::OPAC_MIE_OPTICS, name))
     }
 
     /// Parses columns `wavelength_nm rh_pct k_ext ssa g`.

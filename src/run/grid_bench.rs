@@ -26,6 +26,7 @@ use std::time::Instant;
 
 use crate::error::{Error, Result};
 use crate::film::image::SkyImage;
+use crate::film::quantile::quantile;
 use crate::job::{Job, Sensor};
 use crate::run::task::render_image;
 
@@ -65,13 +66,6 @@ pub struct BandNoise {
     pub wavelength_nm: f64,
     pub median: f64,
     pub p99: f64,
-}
-
-/// The q-quantile of `v` (sorted in place; nearest rank).
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    v[i]
 }
 
 /// Per band, the noise of `image` (pixels with I > 0; an image of a band
@@ -169,7 +163,7 @@ mod tests {
     fn the_factor_brings_the_worst_band_and_albedo_to_the_target() {
         // Two albedos of one band: the worse sets it (albedo 0 is left
         // out); a median of 1 % needs 4× the samples, a 99th percentile
-        // (nearest rank: the 99th of 100) of 6 % needs 9×.
+        // (nearest rank: index round(99·0.99) = 98 of 100) of 6 % needs 9×.
         let layer = |albedo: f64, rel: &[f64]| ImageLayer {
             wavelength_nm: 340.0,
             albedo,

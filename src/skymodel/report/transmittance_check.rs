@@ -7,6 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::film::quantile::quantile;
 use crate::io::exr::{read_exr, wavelength_label};
 use crate::skymodel::angles::PLANET_RADIUS_M;
 use crate::skymodel::runtime::{Model, Parameters};
@@ -134,9 +135,7 @@ pub fn max_abs_error(model: &Model, dir: &Path) -> Result<TransmittanceError> {
 /// The `q`-quantile of `values` (the nearest rank, after sorting them in
 /// place) and their mean; `values` must not be empty.
 fn percentile_and_mean(values: &mut [f64], q: f64) -> (f64, f64) {
-    values.sort_by(f64::total_cmp);
-    let at = ((values.len() - 1) as f64 * q).round() as usize;
-    (values[at], values.iter().sum::<f64>() / values.len() as f64)
+    (quantile(values, q), values.iter().sum::<f64>() / values.len() as f64)
 }
 
 #[cfg(test)]
