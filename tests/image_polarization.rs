@@ -19,6 +19,7 @@ mod common;
 use std::f64::consts::PI;
 
 use atmosim::job::Sensor;
+use atmosim::sensor::camera::Camera;
 use common::{Comparison, job, layers_toml};
 use glam::DVec3;
 
@@ -85,35 +86,23 @@ fn centre_axis(frame: &str, c: DVec3, phi: f64, sun: DVec3) -> DVec3 {
     }
 }
 
-fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
-    let text = format!(
-        "{}[sun]\nelevation_deg = {SUN_ELEVATION_DEG}\n[observer]\naltitude_km = {observer_km}\n\
-         [render]\nsamples = {samples}\nseed = 11\nmax_scattering_order = 1\n\
-         [sensor]\n{sensor}\nstokes_frame = \"{frame}\"\n[output]\npreview = false\n",
-        layers_toml(&[(0.0, 10.0, TAU, 0.0), (10.0, 20.0, 0.0, 0.0)], 0.0)
-    );
-    let j = job(&text);
-    let Sensor::Image(camera) = j.render.sensor.clone() else {
-        panic!("not an image")
-    };
-    let task = &j.tasks[0];
-    let sun = task.sun.direction;
-    let image = atmosim::run::task::render_image(&j, task, &camera, &|_| {}, &|_| {}).unwrap();
-    let layer = &image.layers[0];
+/// The exact mean of every pixel over its solid angle (K × K midpoints,
+/// each in the pixel centre's frame carried to it), and whether the pixel
+/// holds a pole; `None` outside a fisheye's circle.
+fn pixel_references<const K: usize>(
+    camera: &Camera,
+    frame: &str,
+    sun: DVec3,
+    above: bool,
+) -> Vec<Option<([f64; 3], bool)>> {
     let (w, h) = camera.size();
-    let mut cmp = Comparison::default();
-    let mut dolp = Comparison::default();
-    let (mut pole_pixels, mut pixels) = (0, 0);
-    for py in 0..h {
-        for px in 0..w {
+    (0..w * h)
+        .map(|p| {
+            let (px, py) = (p % w, p / w);
             // The pixel's centre direction (the rim point for a fisheye pixel
             // whose centre is outside the circle, as the camera defines it).
-            let Some(centre) = camera.centre_ray(px, py) else {
-                continue;
-            };
+            let centre = camera.centre_ray(px, py)?;
             let e1c = centre_axis(frame, centre.direction, centre.azimuth, sun);
-            // The exact pixel mean over its solid angle: 48 × 48 midpoints.
-            const K: usize = 48;
             let (mut sum, mut weight) = ([0.0; 3], 0.0);
             let mut holds_pole = false;
             for a in 0..K {
@@ -123,53 +112,81 @@ fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
                     let Some(ray) = camera.ray_at(x, y) else { continue };
                     let d = ray.direction;
                     holds_pole |= d.z.abs() > (0.5f64).to_radians().cos();
-                    let s = exact(d, carried(e1c, centre.direction, d), sun, observer_km > 10.0);
+                    let s = exact(d, carried(e1c, centre.direction, d), sun, above);
                     for k in 0..3 {
                         sum[k] += s[k] * ray.jacobian;
                     }
                     weight += ray.jacobian;
                 }
             }
-            if weight == 0.0 {
-                continue;
-            }
-            pixels += 1;
-            pole_pixels += holds_pole as usize;
-            let reference = sum.map(|s| s / weight);
-            let p = py * w + px;
-            let mean = [layer.mean[0][p], layer.mean[1][p], layer.mean[2][p]];
-            let se = [layer.se[0][p], layer.se[1][p], layer.se[2][p]];
-            for k in 0..3 {
-                cmp.add(
-                    || format!("{sensor} {frame} pixel ({px}, {py}) Stokes {k}"),
-                    mean[k],
-                    se[k],
-                    reference[k],
-                    0.0,
-                );
-            }
-            if reference[0] == 0.0 {
-                continue;
-            }
-            // The degree of linear polarisation, with its standard error from
-            // the linearised ratio (the errors of I, Q and U taken as
-            // independent: an upper bound here, where they are correlated).
-            let lin = mean[1].hypot(mean[2]);
-            let d = lin / mean[0];
-            let d_se = ((mean[1] * se[1]).powi(2) / (lin * lin)
-                + (mean[2] * se[2]).powi(2) / (lin * lin)
-                + (d * se[0]).powi(2))
-            .sqrt()
-                / mean[0];
-            let d_ref = reference[1].hypot(reference[2]) / reference[0];
-            dolp.add(
-                || format!("{sensor} {frame} pixel ({px}, {py}) DoLP {d:.4} (exact {d_ref:.4})"),
-                d,
-                d_se,
-                d_ref,
+            (weight > 0.0).then(|| (sum.map(|s| s / weight), holds_pole))
+        })
+        .collect()
+}
+
+/// The slab job with `sensor`, `frame`, observer altitude and the
+/// `[render]` keys of its sample count.
+fn slab_job(sensor: &str, frame: &str, observer_km: f64, samples: &str, seed: u64) -> atmosim::job::Job {
+    job(&format!(
+        "{}[sun]\nelevation_deg = {SUN_ELEVATION_DEG}\n[observer]\naltitude_km = {observer_km}\n\
+         [render]\n{samples}\nseed = {seed}\nmax_scattering_order = 1\n\
+         [sensor]\n{sensor}\nstokes_frame = \"{frame}\"\n[output]\npreview = false\n",
+        layers_toml(&[(0.0, 10.0, TAU, 0.0), (10.0, 20.0, 0.0, 0.0)], 0.0)
+    ))
+}
+
+fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
+    let j = slab_job(sensor, frame, observer_km, &format!("samples = {samples}"), 11);
+    let Sensor::Image(camera) = j.render.sensor.clone() else {
+        panic!("not an image")
+    };
+    let task = &j.tasks[0];
+    let sun = task.sun.direction;
+    let image = atmosim::run::task::render_image(&j, task, &camera, &|_| {}, &|_| {}).unwrap();
+    let layer = &image.layers[0];
+    let mut cmp = Comparison::default();
+    let mut dolp = Comparison::default();
+    let (mut pole_pixels, mut pixels) = (0, 0);
+    let (w, _) = camera.size();
+    for (p, r) in pixel_references::<48>(&camera, frame, sun, observer_km > 10.0)
+        .iter()
+        .enumerate()
+    {
+        let Some((reference, holds_pole)) = *r else { continue };
+        let (px, py) = (p % w, p / w);
+        pixels += 1;
+        pole_pixels += holds_pole as usize;
+        let mean = [layer.mean[0][p], layer.mean[1][p], layer.mean[2][p]];
+        let se = [layer.se[0][p], layer.se[1][p], layer.se[2][p]];
+        for k in 0..3 {
+            cmp.add(
+                || format!("{sensor} {frame} pixel ({px}, {py}) Stokes {k}"),
+                mean[k],
+                se[k],
+                reference[k],
                 0.0,
             );
         }
+        if reference[0] == 0.0 {
+            continue;
+        }
+        // The degree of linear polarisation, with its standard error from
+        // the linearised ratio (the errors of I, Q and U taken as
+        // independent: an upper bound here, where they are correlated).
+        let lin = mean[1].hypot(mean[2]);
+        let d = lin / mean[0];
+        let d_se =
+            ((mean[1] * se[1]).powi(2) / (lin * lin) + (mean[2] * se[2]).powi(2) / (lin * lin) + (d * se[0]).powi(2))
+                .sqrt()
+                / mean[0];
+        let d_ref = reference[1].hypot(reference[2]) / reference[0];
+        dolp.add(
+            || format!("{sensor} {frame} pixel ({px}, {py}) DoLP {d:.4} (exact {d_ref:.4})"),
+            d,
+            d_se,
+            d_ref,
+            0.0,
+        );
     }
     assert!(
         pole_pixels >= 1 && pixels > 40,
@@ -177,6 +194,73 @@ fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
     );
     cmp.assert_no_outlier(&format!("{sensor} {frame}: I, Q, U per pixel"));
     dolp.assert_no_outlier(&format!("{sensor} {frame}: DoLP per pixel"));
+}
+
+#[test]
+fn noise_targeted_pixels_are_unbiased_over_many_seeds() {
+    // A noise target allocates each pixel's samples from a pilot; the mean
+    // is of the allocated samples alone, so it stays unbiased. 150 seeds of
+    // a small fisheye: per pixel, the mean over the seeds (its standard
+    // error from their spread) against the exact pixel mean, and every
+    // seed's pixel against it with its own standard error. A sphere image:
+    // no pixel is cut by a fisheye's circle, whose midpoint quadrature
+    // would not match the pooled precision (≈ 0.1 %).
+    const SEEDS: u64 = 150;
+    let sensor = "type = \"sphere\"\nresolution = 8";
+    let target = "noise_target = 0.03\npilot_samples = 8\nmax_samples = 4000";
+    let first = slab_job(sensor, "meridian", 0.0, target, 0);
+    let Sensor::Image(camera) = first.render.sensor.clone() else {
+        panic!("not an image")
+    };
+    let sun = first.tasks[0].sun.direction;
+    let references = pixel_references::<256>(&camera, "meridian", sun, false);
+    let n = references.len();
+    let (mut sum, mut sum_sq) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+    let mut each = Comparison::default();
+    let mut counts = std::collections::BTreeSet::new();
+    for seed in 0..SEEDS {
+        let j = slab_job(sensor, "meridian", 0.0, target, seed);
+        let task = &j.tasks[0];
+        let image = atmosim::run::task::render_image(&j, task, &camera, &|_| {}, &|_| {}).unwrap();
+        let layer = &image.layers[0];
+        counts.extend(image.samples[0].1.iter().copied());
+        for (p, r) in references.iter().enumerate() {
+            let Some((reference, _)) = r else { continue };
+            for k in 0..3 {
+                let m = layer.mean[k][p];
+                sum[p][k] += m;
+                sum_sq[p][k] += m * m;
+                each.add(
+                    || format!("seed {seed} pixel {p} Stokes {k}"),
+                    m,
+                    layer.se[k][p],
+                    reference[k],
+                    0.0,
+                );
+            }
+        }
+    }
+    // The allocation differs between pixels and seeds (it is not a fixed
+    // count in disguise).
+    assert!(counts.len() > 20, "{counts:?}");
+    let mut pooled = Comparison::default();
+    for (p, r) in references.iter().enumerate() {
+        let Some((reference, _)) = r else { continue };
+        for k in 0..3 {
+            let s = SEEDS as f64;
+            let mean = sum[p][k] / s;
+            let var = (sum_sq[p][k] / s - mean * mean).max(0.0) * s / (s - 1.0);
+            pooled.add(
+                || format!("pixel {p} Stokes {k}, mean of {SEEDS} seeds"),
+                mean,
+                (var / s).sqrt(),
+                reference[k],
+                1e-12 * reference[0].abs(),
+            );
+        }
+    }
+    pooled.assert_no_outlier("noise target: per-pixel mean over seeds");
+    each.assert_no_outlier("noise target: every seed's pixels");
 }
 
 #[test]

@@ -32,6 +32,7 @@ fn sampling<'a>(
         samples,
         seed,
         render: Render::channel(0, 0),
+        pilot: false,
     }
 }
 

@@ -1335,13 +1335,14 @@ fn check_state(bytes: &[u8]) -> Result<Outcome, String> {
         && job.hash == f.state.job_hash
         && let Some(task) = job.tasks.get(f.state.task)
     {
-        let layout = Layout::new(&job, task, job.spectral_scene(task).is_some());
+        let mut layout = Layout::new(&job, task, job.spectral_scene(task).is_some());
+        layout.allocate(&f.state);
         if layout.fits(&f.state) {
             let _ = f.state.is_complete(&layout);
             let _ = layout.done_paths(&f.state);
             let _ = f.state.non_finite(&layout);
             let mut total = f.state.clone();
-            total.add(&f.state);
+            total.add(&f.state, &layout);
         }
     }
     Ok(Outcome::Read)

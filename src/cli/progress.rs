@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 pub struct Progress {
     bar: Option<ProgressBar>,
     quiet: bool,
-    total: u64,
+    total: AtomicU64,
     done: AtomicU64,
     start: std::time::Instant,
     last_line: std::sync::Mutex<std::time::Instant>,
@@ -32,7 +32,7 @@ impl Progress {
         Progress {
             bar,
             quiet,
-            total,
+            total: AtomicU64::new(total),
             done: AtomicU64::new(done),
             start: std::time::Instant::now(),
             last_line: std::sync::Mutex::new(std::time::Instant::now()),
@@ -49,12 +49,22 @@ impl Progress {
         {
             *last = std::time::Instant::now();
             let secs = self.start.elapsed().as_secs_f64();
+            let total = self.total.load(Ordering::Relaxed);
             eprintln!(
                 "progress: {:.1} % of {} paths, {:.0} s elapsed",
-                100.0 * done as f64 / self.total.max(1) as f64,
-                self.total,
+                100.0 * done as f64 / total.max(1) as f64,
+                total,
                 secs
             );
+        }
+    }
+
+    /// Adds `n` paths to the total (a noise target's allocation, known
+    /// once its pilot is done).
+    pub fn grow(&self, n: u64) {
+        self.total.fetch_add(n, Ordering::Relaxed);
+        if let Some(b) = &self.bar {
+            b.inc_length(n);
         }
     }
 

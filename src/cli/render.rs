@@ -192,11 +192,13 @@ fn render_units(
             ));
             continue;
         }
-        let layout = Layout::new(job, task, job.spectral_scene(task).is_some());
+        let mut layout = Layout::new(job, task, job.spectral_scene(task).is_some());
         let cp = checkpoint::checkpoint_path(&dir, shard);
         let state = if options.resume && cp.exists() {
             let f = StateFile::read(&cp)?;
             let s = f.state;
+            // A noise target's allocation, from the checkpoint's pilot.
+            layout.allocate(&s);
             if s.job_hash != job.hash || s.task != task.index || s.shard != shard || !layout.fits(&s) {
                 anyhow::bail!(atmosim::Error::data(
                     cp.display().to_string(),
@@ -258,11 +260,13 @@ fn render_units(
             Ok(())
         };
         let inc = |n: u64| progress.inc(n);
+        let grow = |n: u64| progress.grow(n);
         let control = Control {
             stop: &signals::STOP,
             checkpoint_every: options.checkpoint_every,
             checkpoint: &checkpoint,
             progress: &inc,
+            allocated: &grow,
         };
         let shared = job.spectral_scene(task);
         let outcome = pool.install(|| work_unit::run(job, task, layout, shared, state, &control))?;

@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 
+use crate::film::pixel_counts::PixelCounts;
 use crate::film::tally::Tally;
 use crate::polarization::stokes::Stokes;
 use crate::polarization::stokes_frame::{StokesFrame, carry};
@@ -153,7 +154,8 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
 
 /// How pixels are sampled: the camera, the pixels' mean dΩ/dA, the filter,
 /// the Stokes frame (and the sun's direction, which the sun–view frame
-/// needs), samples per pixel and the seed and render that key the pixels' streams.
+/// needs), samples per pixel, the seed and render that key the pixels'
+/// streams, and whether they are a noise target's pilot (streams of their own).
 #[derive(Clone, Copy)]
 pub struct PixelSampling<'a> {
     pub camera: &'a Camera,
@@ -164,6 +166,7 @@ pub struct PixelSampling<'a> {
     pub samples: u64,
     pub seed: u64,
     pub render: Render,
+    pub pilot: bool,
 }
 
 /// Renders every pixel: `radiance(direction, e1, sampler, values)` writes a sample's
@@ -220,11 +223,47 @@ pub fn render_pixels_into(
                 let p = a + k;
                 let samples = samples_below(p as u64, pixels, items.start)..samples_below(p as u64, pixels, items.end);
                 let n = samples.end - samples.start;
-                if n > 0 && render_pixel(sampling, (p % w, p / w), p, samples, tallies, &radiance) {
+                let total = sampling.samples;
+                if n > 0 && render_pixel(sampling, (p % w, p / w), p, (samples, total), tallies, &radiance) {
                     progress(n);
                 }
             });
     }
+}
+
+/// Adds the items `items` of pixels with samples of their own (`counts`,
+/// see [`PixelCounts`]) to `per_pixel` (pixel-major, `count` tallies per
+/// pixel); as [`render_pixels_into`], any cut of the items into waves gives
+/// the same sums bit for bit.
+pub fn render_counted_into(
+    sampling: &PixelSampling,
+    counts: &PixelCounts,
+    items: std::ops::Range<u64>,
+    per_pixel: &mut [Tally],
+    count: usize,
+    radiance: impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]) + Sync,
+) {
+    let (w, _) = sampling.camera.size();
+    if items.is_empty() || counts.pixels() == 0 {
+        return;
+    }
+    let samples = counts.samples_of(&items);
+    per_pixel
+        .par_chunks_mut(count)
+        .zip(samples.par_iter())
+        .enumerate()
+        .with_min_len(16)
+        .filter(|(_, (_, s))| !s.is_empty())
+        .for_each(|(p, (tallies, s))| {
+            render_pixel(
+                sampling,
+                (p % w, p / w),
+                p,
+                (s.clone(), counts.total(p)),
+                tallies,
+                &radiance,
+            );
+        });
 }
 
 /// Pixel-major tallies (`count` per pixel) as `[value][pixel]`, and the
@@ -267,13 +306,14 @@ fn strata(samples: u64) -> u64 {
     ((samples as f64).sqrt() as u64).clamp(1, 16)
 }
 
-/// Adds samples `range` of one pixel to its `tallies`; false for a pixel
-/// entirely outside the image's circle (zero, no samples).
+/// Adds samples `range` (of the pixel's `total`, which set its strata) of
+/// one pixel to its `tallies`; false for a pixel entirely outside the
+/// image's circle (zero, no samples).
 fn render_pixel(
     sampling: &PixelSampling,
     (i, j): (usize, usize),
     index: usize,
-    range: std::ops::Range<u64>,
+    (range, samples): (std::ops::Range<u64>, u64),
     tallies: &mut [Tally],
     radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]),
 ) -> bool {
@@ -286,12 +326,16 @@ fn render_pixel(
         return false;
     };
     let centre_e1 = sampling.frame.axis(centre.direction, centre.azimuth, sampling.sun);
-    let samples = sampling.samples;
     let m = strata(samples);
     let stratified = samples / (m * m) * (m * m);
     let mut values = vec![Stokes::zero(); tallies.len()];
     for s in range {
-        let mut sampler = StreamKey::new(sampling.seed, sampling.render, Estimate::Pixel(index)).sampler(s);
+        let stream = if sampling.pilot {
+            Estimate::Pilot(index)
+        } else {
+            Estimate::Pixel(index)
+        };
+        let mut sampler = StreamKey::new(sampling.seed, sampling.render, stream).sampler(s);
         let (x, y) = match sampling.filter {
             PixelFilter::Center => (i as f64 + 0.5, j as f64 + 0.5),
             PixelFilter::Box => {
@@ -332,6 +376,9 @@ pub struct SkyImage {
     pub width: usize,
     pub height: usize,
     pub layers: Vec<ImageLayer>,
+    /// A noise target's samples per pixel: one map for all channels along
+    /// shared paths (wavelength `None`), else one per channel.
+    pub samples: Vec<(Option<f64>, Vec<u64>)>,
 }
 
 #[cfg(test)]

@@ -4,6 +4,8 @@
 pub mod directions;
 pub mod fluxes;
 pub mod image;
+pub mod noise;
+pub mod pixel_counts;
 pub mod quantile;
 pub mod results;
 pub mod tally;

@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use crate::error::Result;
+use crate::film::noise::Noise;
 use crate::film::results::{FluxRow, RadianceRow};
 use crate::io::exr::{Channel, wavelength_label, write_exr};
 use crate::job::transmittance::Grid;
@@ -51,6 +52,24 @@ pub fn flux_csv(rows: &[FluxRow]) -> String {
         s.push_str(&format!(
             "{},{},{},{:.9e},{:.9e},{:.9e},{:.4e},{:.4e},{}\n",
             r.wavelength_nm, r.albedo, r.altitude_km, f.e_dir, f.e_down, f.e_up, f.e_down_se, f.e_up_se, f.samples
+        ));
+    }
+    s
+}
+
+/// Header of the noise CSV of a render with a noise target.
+pub const NOISE_CSV_HEADER: &str = "wavelength_nm,albedo,counted,median_rel_se_I,p99_rel_se_I,max_rel_se_I,above_target,samples_min,samples_median,samples_max";
+
+/// The noise CSV text: per (wavelength, albedo), the relative standard
+/// error of I over the pixels or directions with a non-zero mean
+/// (`counted`), how many are above the target, and their samples.
+pub fn noise_csv(rows: &[(f64, f64, Noise)]) -> String {
+    let mut s = String::from(NOISE_CSV_HEADER);
+    s.push('\n');
+    for (wavelength_nm, albedo, n) in rows {
+        s.push_str(&format!(
+            "{wavelength_nm},{albedo},{},{:.4e},{:.4e},{:.4e},{},{},{},{}\n",
+            n.counted, n.median, n.p99, n.max, n.above, n.samples[0], n.samples[1], n.samples[2]
         ));
     }
     s

@@ -42,6 +42,13 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
             });
         }
     }
+    // A noise target's samples per pixel (exact in f32: the cap is 2²⁴).
+    for (wavelength, counts) in &image.samples {
+        channels.push(Channel {
+            name: wavelength.map_or("samples".into(), |w| format!("{}.samples", wavelength_label(w))),
+            samples: counts.iter().map(|&n| n as f32).collect(),
+        });
+    }
     let non_finite: u64 = image.layers.iter().map(|l| l.non_finite).sum();
     write_exr(
         &dir.join(IMAGE_FILE),
@@ -191,7 +198,15 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         ("medium".into(), format!("{:?}", spec.medium)),
         ("polarized".into(), format!("{}", spec.settings.polarized)),
         ("max_scattering_order".into(), format!("{}", spec.settings.max_scattering_order)),
-        ("samples_per_pixel".into(), format!("{}", spec.samples)),
+        ("samples_per_pixel".into(), match spec.target {
+            None => format!("{}", spec.samples),
+            Some(t) => format!(
+                "noise target: relative standard error of I {} in every channel and albedo, per pixel the samples of \
+                 channel 'samples' (or '<wavelength>nm.samples'), {} to {}, allocated by a pilot of {} samples \
+                 (not in the means)",
+                t.relative_se, t.pilot, t.max_samples, t.pilot
+            ),
+        }),
         ("seed".into(), format!("{}", spec.seed)),
         ("non_finite_samples".into(), format!("{non_finite}")),
     ]

@@ -43,7 +43,7 @@ pub mod spectrum;
 pub mod transmittance;
 
 pub use raw::GeometryKind;
-pub use render::{RadianceUnits, RenderSpec, Sensor};
+pub use render::{NoiseTarget, RadianceUnits, RenderSpec, Sensor};
 
 // Resolved job
 

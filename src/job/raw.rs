@@ -222,6 +222,9 @@ pub(super) enum RawSunTransmittance {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawRender {
     pub(super) samples: Option<u64>,
+    pub(super) noise_target: Option<f64>,
+    pub(super) pilot_samples: Option<u64>,
+    pub(super) max_samples: Option<u64>,
     pub(super) seed: Option<u64>,
     pub(super) polarized: Option<bool>,
     pub(super) max_scattering_order: Option<u32>,

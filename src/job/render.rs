@@ -26,6 +26,28 @@ pub const DEFAULT_AZIMUTH_DEG: [f64; 3] = [0.0, 90.0, 180.0];
 /// Largest image side (pixels).
 pub const MAX_RESOLUTION: i64 = 16384;
 
+/// Default pilot samples per direction or pixel of a noise target.
+pub const DEFAULT_PILOT_SAMPLES: u64 = 32;
+/// Default cap on a noise target's samples per direction or pixel.
+pub const DEFAULT_MAX_SAMPLES: u64 = 1_000_000;
+/// Largest cap of a noise target.
+pub const MAX_TARGET_SAMPLES: u64 = 1 << 24;
+
+/// A noise target (`render.noise_target`): each direction or pixel gets the
+/// samples its pilot says it needs for a relative standard error of I of
+/// `relative_se` in every channel and albedo, between `pilot` and
+/// `max_samples`. The pilot's own samples only set the allocation; the
+/// result is the mean of the allocated samples alone, so it stays
+/// unbiased (`crate::run::allocation`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseTarget {
+    pub relative_se: f64,
+    /// Pilot samples per direction or pixel (also the fewest allocated).
+    pub pilot: u64,
+    /// Most samples allocated per direction or pixel.
+    pub max_samples: u64,
+}
+
 /// What the sensor records.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Sensor {
@@ -59,8 +81,11 @@ pub struct RenderSpec {
     pub stokes_frame: StokesFrame,
     /// Also estimate the fluxes at the observer level (`directions`).
     pub fluxes: bool,
-    /// Samples per direction or pixel.
+    /// Samples per direction or pixel (with a noise target: the most any
+    /// gets, `target.max_samples`).
     pub samples: u64,
+    /// Allocate samples to a noise target instead of a fixed count.
+    pub target: Option<NoiseTarget>,
     /// Render all wavelengths along shared paths where the media allow.
     pub shared_wavelengths: bool,
     pub seed: u64,
@@ -168,7 +193,11 @@ pub(super) fn resolve(
     };
 
     let render = render.unwrap_or_default();
-    let samples = render.samples.unwrap_or(DEFAULT_SAMPLES);
+    let target = resolve_target(ctx, &render)?;
+    let samples = match target {
+        Some(t) => t.max_samples,
+        None => render.samples.unwrap_or(DEFAULT_SAMPLES),
+    };
     if samples == 0 {
         return Err(ctx.invalid("render.samples", 0, "no samples", "at least 1"));
     }
@@ -178,7 +207,11 @@ pub(super) fn resolve(
         let pixels = (w * h) as u64;
         if samples.checked_mul(pixels).is_none_or(|n| n > 1 << 62) {
             return Err(ctx.invalid(
-                "render.samples",
+                if target.is_some() {
+                    "render.max_samples"
+                } else {
+                    "render.samples"
+                },
                 samples,
                 &format!("too many samples for an image of {pixels} pixels"),
                 &format!("at most {} per pixel at this resolution", (1u64 << 62) / pixels),
@@ -211,6 +244,7 @@ pub(super) fn resolve(
         stokes_frame,
         fluxes: sensor_raw.fluxes.unwrap_or(true),
         samples,
+        target,
         shared_wavelengths: render.shared_wavelengths.unwrap_or(true),
         seed: render.seed.unwrap_or(1),
         settings: Settings {
@@ -243,6 +277,80 @@ pub(super) fn resolve(
         preview: output.preview.unwrap_or(true),
         exposure,
     })
+}
+
+/// The noise target of `[render]`, if any: `noise_target` with its
+/// `pilot_samples` and `max_samples`, which mean nothing without it, as
+/// `samples` means nothing with it.
+fn resolve_target(ctx: &Ctx, render: &RawRender) -> Result<Option<NoiseTarget>> {
+    let Some(relative_se) = render.noise_target else {
+        for (key, given) in [
+            ("render.pilot_samples", render.pilot_samples),
+            ("render.max_samples", render.max_samples),
+        ] {
+            if let Some(v) = given {
+                return Err(ctx.invalid(
+                    key,
+                    v,
+                    "only a noise target has pilot and maximum samples",
+                    "set render.noise_target too, or leave the key out (render.samples is the fixed count)",
+                ));
+            }
+        }
+        return Ok(None);
+    };
+    if let Some(n) = render.samples {
+        return Err(ctx.invalid(
+            "render.samples",
+            n,
+            "render.noise_target is given too",
+            "one of render.samples (a fixed count) or render.noise_target (with render.max_samples as the cap)",
+        ));
+    }
+    let relative_se = ctx.range(
+        "render.noise_target",
+        relative_se,
+        0.0,
+        1.0,
+        true,
+        "a relative standard error of I above 0 and at most 1 (0.005: 0.5 %)",
+    )?;
+    let pilot = render.pilot_samples.unwrap_or(DEFAULT_PILOT_SAMPLES);
+    if pilot < 2 {
+        return Err(ctx.invalid(
+            "render.pilot_samples",
+            pilot,
+            "a pilot needs two samples for a variance",
+            "at least 2 (default 32)",
+        ));
+    }
+    let max_samples = render.max_samples.unwrap_or(DEFAULT_MAX_SAMPLES.max(pilot));
+    if pilot > MAX_TARGET_SAMPLES || max_samples > MAX_TARGET_SAMPLES {
+        let (key, v) = if pilot > MAX_TARGET_SAMPLES {
+            ("render.pilot_samples", pilot)
+        } else {
+            ("render.max_samples", max_samples)
+        };
+        return Err(ctx.invalid(
+            key,
+            v,
+            "too many samples per direction or pixel for a noise target",
+            &format!("at most {MAX_TARGET_SAMPLES} (2^24: the image's per-pixel counts are exact 32-bit floats)"),
+        ));
+    }
+    if max_samples < pilot {
+        return Err(ctx.invalid(
+            "render.max_samples",
+            max_samples,
+            &format!("below render.pilot_samples ({pilot}), the fewest any direction or pixel gets"),
+            &format!("at least {pilot}"),
+        ));
+    }
+    Ok(Some(NoiseTarget {
+        relative_se,
+        pilot,
+        max_samples,
+    }))
 }
 
 /// Refuses the keys of one kind of sensor given to the other, which it

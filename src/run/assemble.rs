@@ -4,6 +4,7 @@
 use crate::film::fluxes::Fluxes;
 use crate::film::image::SkyImage;
 use crate::film::image::{self, ImageLayer};
+use crate::film::noise::Noise;
 use crate::film::results::RenderResult;
 use crate::film::results::{FluxRow, RadianceRow};
 use crate::film::tally::Tally;
@@ -22,7 +23,8 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     let na = spec.albedos.len();
     let mut radiance: Vec<Vec<Vec<Tally>>> = vec![vec![Vec::new(); na]; job.wavelengths_nm.len()];
     let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
-    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+    // A noise target's pilot only set the allocation: not a result.
+    for (est, tallies) in layout.results(state) {
         match est.kind {
             EstimateKind::Direction { channels, .. } => match channels {
                 Channels::Shared => {
@@ -91,7 +93,8 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
     let spec = &job.render;
     let na = spec.albedos.len();
     let mut layers = Vec::new();
-    for (est, tallies) in layout.estimates.iter().zip(&state.tallies) {
+    let mut samples = Vec::new();
+    for (est, tallies) in layout.results(state) {
         let EstimateKind::Pixels { channels } = est.kind else {
             continue;
         };
@@ -100,6 +103,14 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
             Channels::Shared => (0..job.wavelengths_nm.len()).collect(),
             Channels::One(w) => vec![w],
         };
+        if layout.target.is_some() {
+            // A noise target's samples per pixel, one map per estimate.
+            let wavelength = match channels {
+                Channels::Shared => None,
+                Channels::One(w) => Some(job.wavelengths_nm[w]),
+            };
+            samples.push((wavelength, per_value[0].iter().map(|t| t.samples).collect()));
+        }
         for (k, &w) in wavelengths.iter().enumerate() {
             for (a, &albedo) in spec.albedos.iter().enumerate() {
                 layers.push(ImageLayer::from_tallies(
@@ -111,5 +122,51 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
             }
         }
     }
-    SkyImage { width, height, layers }
+    SkyImage {
+        width,
+        height,
+        layers,
+        samples,
+    }
+}
+
+/// The noise a task's sums reached (against its noise target, or 0): per
+/// (wavelength, albedo), over the pixels or the viewing directions.
+pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, Noise)> {
+    let target = layout.target.map_or(0.0, |t| t.relative_se);
+    let na = job.render.albedos.len();
+    let nw = job.wavelengths_nm.len();
+    // Per (wavelength, albedo), the tallies of its pixels or directions.
+    let mut per_value: Vec<Vec<Tally>> = vec![Vec::new(); nw * na];
+    for (est, tallies) in layout.results(state) {
+        let first = match est.kind.channels() {
+            Channels::Shared => 0,
+            Channels::One(w) => w,
+        };
+        match est.kind {
+            EstimateKind::Flux { .. } => {}
+            EstimateKind::Direction { .. } => {
+                for (v, t) in tallies.iter().enumerate() {
+                    per_value[first * na + v].push(*t);
+                }
+            }
+            EstimateKind::Pixels { .. } => {
+                let (values, _) = image::split_values(tallies, est.values);
+                for (v, list) in values.into_iter().enumerate() {
+                    per_value[first * na + v] = list;
+                }
+            }
+        }
+    }
+    per_value
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            (
+                job.wavelengths_nm[k / na],
+                job.render.albedos[k % na],
+                Noise::of(t, target),
+            )
+        })
+        .collect()
 }

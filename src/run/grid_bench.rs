@@ -175,6 +175,7 @@ mod tests {
         rel[98] = 0.06;
         rel[99] = 0.06;
         let image = SkyImage {
+            samples: Vec::new(),
             width: 10,
             height: 10,
             layers: vec![layer(0.0, &[9.0; 100]), layer(0.3, &vec![0.001; 100]), layer(1.0, &rel)],

@@ -2,10 +2,17 @@
 //! flux hemisphere, or every pixel of an image; for all channels along
 //! shared paths or one channel alone), their stream keys and sample ranges
 //! per shard, and the state of a unit's sums ([`UnitState`]).
+//!
+//! With a noise target every estimate comes twice: first its pilot
+//! ([`Stage::Pilot`], the same in every shard), then the estimate itself
+//! ([`Stage::Targeted`]), whose samples per direction or pixel the pilot's
+//! sums decide ([`crate::run::allocation`]) once the pilot is done.
 
 use crate::film::image::ActivePixels;
+use crate::film::pixel_counts::PixelCounts;
 use crate::film::tally::{self, BLOCK, Tally};
-use crate::job::{Job, Sensor, Task};
+use crate::job::{Job, NoiseTarget, Sensor, Task};
+use crate::run::allocation::{self, Allocation};
 use crate::run::shard::Shard;
 use crate::sampling::stream::{self, Channels, Render, StreamKey};
 
@@ -33,13 +40,27 @@ impl EstimateKind {
     }
 }
 
-/// One estimate of a task: its kind, its stream key and the number of
-/// values each sample gives.
+/// Where an estimate's sample count comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// The job's `samples` per direction or pixel.
+    Fixed,
+    /// A noise target's pilot: `pilot_samples` per direction or pixel,
+    /// traced whole by every shard; it sets the allocation and is not part
+    /// of the results.
+    Pilot,
+    /// The samples the pilot at estimate index `pilot` allocates.
+    Targeted { pilot: usize },
+}
+
+/// One estimate of a task: its kind, its stream key, the number of values
+/// each sample gives and where its sample count comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     pub kind: EstimateKind,
     pub key: StreamKey,
     pub values: usize,
+    pub stage: Stage,
 }
 
 /// The estimates of a task, in a fixed order.
@@ -62,6 +83,14 @@ pub struct Layout {
     /// Resize waves to last about [`WAVE_SECONDS`](crate::run::work_unit::WAVE_SECONDS) from the measured rate
     /// (the partition into waves never changes the sums).
     pub adaptive_waves: bool,
+    /// The noise target, if samples are allocated.
+    pub target: Option<NoiseTarget>,
+    /// Per estimate: the samples a noise target allocated (targeted
+    /// estimates whose pilot is done), else `None`.
+    pub allocation: Vec<Option<Allocation>>,
+    /// Image width (pixels a row; 0 for directions): the allocation's
+    /// neighbourhoods.
+    width: usize,
 }
 
 impl Layout {
@@ -84,6 +113,7 @@ impl Layout {
                             },
                             key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::Direction(d)),
                             values: nw * na,
+                            stage: Stage::Fixed,
                         });
                     }
                 }
@@ -97,6 +127,7 @@ impl Layout {
                             },
                             key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::flux(up)),
                             values: nw * na,
+                            stage: Stage::Fixed,
                         });
                     }
                 }
@@ -114,6 +145,7 @@ impl Layout {
                                     stream::Estimate::Direction(d),
                                 ),
                                 values: na,
+                                stage: Stage::Fixed,
                             });
                         }
                     }
@@ -126,6 +158,7 @@ impl Layout {
                                 },
                                 key: StreamKey::new(seed, Render::channel(task.index, w), stream::Estimate::flux(up)),
                                 values: na,
+                                stage: Stage::Fixed,
                             });
                         }
                     }
@@ -158,11 +191,37 @@ impl Layout {
                             Channels::Shared => nw * na,
                             Channels::One(_) => na,
                         },
+                        stage: Stage::Fixed,
                     });
                 }
             }
         }
+        if spec.target.is_some() {
+            // Every estimate's pilot first, then the estimates themselves.
+            let pilots: Vec<Estimate> = estimates
+                .iter()
+                .map(|e| Estimate {
+                    key: e.key.with(e.key.estimate.pilot()),
+                    stage: Stage::Pilot,
+                    ..*e
+                })
+                .collect();
+            let n = pilots.len();
+            estimates = pilots
+                .into_iter()
+                .chain(estimates.into_iter().enumerate().map(|(k, e)| Estimate {
+                    stage: Stage::Targeted { pilot: k },
+                    ..e
+                }))
+                .collect();
+            debug_assert_eq!(estimates.len(), 2 * n);
+        }
+        let width = match &spec.sensor {
+            Sensor::Image(camera) => camera.size().0,
+            Sensor::Directions(_) => 0,
+        };
         Layout {
+            allocation: vec![None; estimates.len()],
             estimates,
             samples: spec.samples,
             pixels,
@@ -170,21 +229,119 @@ impl Layout {
             shared,
             wave_paths: 1 << 15,
             adaptive_waves: true,
+            target: spec.target,
+            width,
         }
+    }
+
+    /// Allocates the samples of every targeted estimate whose pilot `state`
+    /// has finished (and that has none yet); a no-op without a noise
+    /// target, or for a state of another shape.
+    pub fn allocate(&mut self, state: &UnitState) {
+        let Some(target) = self.target else { return };
+        if state.tallies.len() != self.estimates.len() || state.done.len() != self.estimates.len() {
+            return;
+        }
+        for e in 0..self.estimates.len() {
+            let Stage::Targeted { pilot } = self.estimates[e].stage else {
+                continue;
+            };
+            if self.allocation[e].is_some() || state.done[pilot] != self.len(pilot, state.shard) {
+                continue;
+            }
+            let tallies = &state.tallies[pilot];
+            if tallies.len() != self.tallies(pilot) {
+                continue;
+            }
+            self.allocation[e] = Some(match self.estimates[e].kind {
+                EstimateKind::Pixels { .. } => Allocation::Pixels(allocation::pixels(
+                    tallies,
+                    self.estimates[e].values,
+                    self.width,
+                    &target,
+                )),
+                _ => Allocation::Single(allocation::single(tallies, &target)),
+            });
+        }
+    }
+
+    /// Samples per direction or flux of estimate `e` in the whole task (0
+    /// for a targeted estimate not yet allocated; images: see
+    /// [`Layout::pixel_counts`]).
+    pub fn samples_of(&self, e: usize) -> u64 {
+        match (self.estimates[e].stage, &self.allocation[e]) {
+            (Stage::Fixed, _) => self.samples,
+            (Stage::Pilot, _) => self.target.map_or(0, |t| t.pilot),
+            (Stage::Targeted { .. }, Some(Allocation::Single(n))) => *n,
+            (Stage::Targeted { .. }, _) => 0,
+        }
+    }
+
+    /// The samples of every pixel of targeted image estimate `e` in
+    /// `shard`, once allocated.
+    pub fn pixel_counts(&self, e: usize, shard: Shard) -> Option<PixelCounts> {
+        let Some(Allocation::Pixels(n)) = &self.allocation[e] else {
+            return None;
+        };
+        let ranges: Vec<std::ops::Range<u64>> = n.iter().map(|&n| shard.range(n)).collect();
+        Some(PixelCounts::new(&ranges, n))
     }
 
     /// The work of estimate `e` in `shard`: sample blocks of a direction or
     /// flux; the items of an image (its samples per pixel × its pixels, see
-    /// [`ActivePixels`]).
+    /// [`ActivePixels`], or for a targeted image the sum of its pixels'
+    /// samples, see [`PixelCounts`]). A pilot is the same whole range in
+    /// every shard; a targeted estimate not yet allocated has none.
     pub fn range(&self, e: usize, shard: Shard) -> std::ops::Range<u64> {
-        match self.estimates[e].kind {
-            EstimateKind::Pixels { .. } => {
-                let samples = shard.range(self.samples);
+        let est = &self.estimates[e];
+        let shard = if est.stage == Stage::Pilot { Shard::WHOLE } else { shard };
+        match (est.kind, &self.allocation[e]) {
+            (EstimateKind::Pixels { .. }, Some(Allocation::Pixels(n))) => {
+                0..n.iter()
+                    .map(|&n| shard.range(n).end - shard.range(n).start)
+                    .sum::<u64>()
+            }
+            (EstimateKind::Pixels { .. }, _) => {
+                let samples = shard.range(self.samples_of(e));
                 let p = self.pixels as u64;
                 samples.start * p..samples.end * p
             }
-            _ => shard.range(self.samples.div_ceil(BLOCK)),
+            _ => shard.range(self.samples_of(e).div_ceil(BLOCK)),
         }
+    }
+
+    /// The length of [`Layout::range`].
+    fn len(&self, e: usize, shard: Shard) -> u64 {
+        let r = self.range(e, shard);
+        r.end - r.start
+    }
+
+    /// The estimates that make the results (all but a noise target's
+    /// pilots), with their sums in `state`.
+    pub fn results<'a>(&'a self, state: &'a UnitState) -> impl Iterator<Item = (&'a Estimate, &'a Vec<Tally>)> {
+        self.estimates
+            .iter()
+            .zip(&state.tallies)
+            .filter(|(est, _)| est.stage != Stage::Pilot)
+    }
+
+    /// True when two states hold the same pilots bit for bit (always true
+    /// without a noise target).
+    pub fn same_pilot(&self, a: &UnitState, b: &UnitState) -> bool {
+        self.estimates
+            .iter()
+            .enumerate()
+            .filter(|(_, est)| est.stage == Stage::Pilot)
+            .all(|(e, _)| a.tallies.get(e) == b.tallies.get(e) && a.done.get(e) == b.done.get(e))
+    }
+
+    /// True when every targeted estimate has its allocation (always true
+    /// without a noise target).
+    pub fn is_allocated(&self) -> bool {
+        self.estimates
+            .iter()
+            .zip(&self.allocation)
+            .all(|(e, a)| !matches!(e.stage, Stage::Targeted { .. }) || a.is_some())
     }
 
     /// Tallies an estimate keeps: one per value (per pixel for images).
@@ -230,9 +387,11 @@ impl Layout {
 
     /// Paths of `work` (a part of [`Layout::range`]) of estimate `e`.
     pub(crate) fn paths_of(&self, e: usize, work: &std::ops::Range<u64>) -> u64 {
-        match self.estimates[e].kind {
-            EstimateKind::Pixels { .. } => self.active.as_ref().map_or(0, |a| a.paths(work)),
-            _ => tally::block_samples(work, self.samples),
+        match (self.estimates[e].kind, &self.allocation[e]) {
+            // Every item of a targeted image is a traced path.
+            (EstimateKind::Pixels { .. }, Some(_)) => work.end - work.start,
+            (EstimateKind::Pixels { .. }, None) => self.active.as_ref().map_or(0, |a| a.paths(work)),
+            _ => tally::block_samples(work, self.samples_of(e)),
         }
     }
 
@@ -249,7 +408,8 @@ impl Layout {
         }
     }
 
-    /// True when `state` has the shape of this layout.
+    /// True when `state` has the shape of this layout (allocate first:
+    /// a targeted estimate not yet allocated has no work done).
     pub fn fits(&self, state: &UnitState) -> bool {
         state.done.len() == self.estimates.len()
             && state.tallies.len() == self.estimates.len()
@@ -282,26 +442,35 @@ pub struct UnitState {
 }
 
 impl UnitState {
-    /// True when every estimate has done its whole range.
+    /// True when every estimate has done its whole range (and a noise
+    /// target's estimates have their allocation).
     pub fn is_complete(&self, layout: &Layout) -> bool {
-        self.done
-            .iter()
-            .enumerate()
-            .all(|(e, &d)| d == layout.range(e, self.shard).end - layout.range(e, self.shard).start)
+        layout.is_allocated()
+            && self
+                .done
+                .iter()
+                .enumerate()
+                .all(|(e, &d)| d == layout.range(e, self.shard).end - layout.range(e, self.shard).start)
     }
 
-    /// Samples that gave a non-finite value (counted once per path).
+    /// Samples of the results that gave a non-finite value (counted once
+    /// per path; a noise target's pilot is not part of the results).
     pub fn non_finite(&self, layout: &Layout) -> u64 {
         self.tallies
             .iter()
             .zip(&layout.estimates)
+            .filter(|(_, est)| est.stage != Stage::Pilot)
             .map(|(t, est)| t.iter().step_by(est.values.max(1)).map(|x| x.non_finite).sum::<u64>())
             .sum()
     }
 
-    /// Adds another shard's sums (same task and layout) to these.
-    pub fn add(&mut self, other: &UnitState) {
-        for (a, b) in self.tallies.iter_mut().zip(&other.tallies) {
+    /// Adds another shard's sums (same task and layout) to these; a pilot,
+    /// which every shard traces whole, is kept once.
+    pub fn add(&mut self, other: &UnitState, layout: &Layout) {
+        for ((a, b), est) in self.tallies.iter_mut().zip(&other.tallies).zip(&layout.estimates) {
+            if est.stage == Stage::Pilot {
+                continue;
+            }
             for (x, y) in a.iter_mut().zip(b) {
                 x.merge(y);
             }

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::job::Job;
 use crate::run::checkpoint::{SHARD_EXTENSION, StateFile};
-use crate::run::layout::{Layout, UnitState};
+use crate::run::layout::Layout;
 use crate::run::task_output::{self, RunInfo};
 
 /// Most missing shards a refusal names.
@@ -175,20 +175,31 @@ pub fn merge(out_dir: &Path, log: &dyn Fn(&str)) -> Result<Merged> {
             )));
         }
         let shared = job.spectral_scene(task).is_some();
-        let layout = Layout::new(&job, task, shared);
-        for (path, f) in list.iter().map(|s| (&s.0, &s.1)) {
+        let mut layout = Layout::new(&job, task, shared);
+        let mut ordered: Vec<&(PathBuf, StateFile)> = list.clone();
+        ordered.sort_by_key(|s| s.1.state.shard.index);
+        // A noise target's allocation comes from the pilot, which every
+        // shard traced whole and must hold bit for bit alike.
+        layout.allocate(&ordered[0].1.state);
+        for (path, f) in ordered.iter().map(|s| (&s.0, &s.1)) {
             if !layout.fits(&f.state) || !f.state.is_complete(&layout) {
                 return Err(refuse(format!(
                     "{} is not a complete shard of task {t} (an unfinished or damaged render): rerun that unit",
                     path.display()
                 )));
             }
+            if !layout.same_pilot(&f.state, &ordered[0].1.state) {
+                return Err(refuse(format!(
+                    "{} and {} traced different pilots for their noise target (made by different \
+                     atmosim versions?): render every shard of task {t} with one version",
+                    path.display(),
+                    ordered[0].0.display()
+                )));
+            }
         }
-        let mut ordered: Vec<&UnitState> = list.iter().map(|s| &s.1.state).collect();
-        ordered.sort_by_key(|s| s.shard.index);
-        let mut total = ordered[0].clone();
+        let mut total = ordered[0].1.state.clone();
         for s in &ordered[1..] {
-            total.add(s);
+            total.add(&s.1.state, &layout);
         }
         count = n;
         plans.push((task, layout, total, n));

@@ -1,6 +1,7 @@
 //! Scheduling: tasks and their work units, shards, checkpoints, merges and
 //! plans. No physics.
 
+pub mod allocation;
 pub mod assemble;
 pub mod bench;
 pub mod checkpoint;

@@ -25,9 +25,9 @@ fn render_whole(
 ) -> Result<(Layout, UnitState)> {
     let start = Instant::now();
     let shared = job.spectral_scene(task);
-    let layout = Layout::new(job, task, shared.is_some());
+    let mut layout = Layout::new(job, task, shared.is_some());
     let mut state = layout.empty_state(job, task, Shard::WHOLE);
-    let outcome = work_unit::run(job, task, &layout, shared, &mut state, &Control::none(progress))?;
+    let outcome = work_unit::run(job, task, &mut layout, shared, &mut state, &Control::none(progress))?;
     debug_assert!(
         matches!(outcome, Outcome::Complete),
         "a run without a stop flag completes"

@@ -1,6 +1,6 @@
 //! A finished task's files, from its sums: `radiance.csv` and `fluxes.csv`
 //! for a `directions` sensor, `image.exr` and the previews for an image,
-//! then `task.toml` (the task's metadata: job hash, samples, non-finite
+//! `noise.csv` with a noise target, then `task.toml` (the task's metadata: job hash, samples, non-finite
 //! samples, shards), written last. Every file is written atomically, and a
 //! task counts as complete only when its `task.toml` names the same job
 //! hash, so a crash at any point never leaves a task that looks complete.
@@ -19,6 +19,8 @@ use crate::run::layout::{Layout, UnitState};
 
 /// The metadata file of a task.
 pub const TASK_FILE: &str = "task.toml";
+/// The noise a task with a noise target reached, per channel and albedo.
+pub const NOISE_FILE: &str = "noise.csv";
 
 /// How the sums were made, for the metadata (only what the results
 /// depend on: the wall time and thread count go to the log, not the files).
@@ -53,6 +55,10 @@ pub fn write(dir: &Path, job: &Job, task: &Task, layout: &Layout, state: &UnitSt
                 .map_or(String::new(), |e| format!(" (preview exposure {e:.4e})"))
         }
     };
+    if job.render.target.is_some() {
+        let noise = crate::run::assemble::noise(job, layout, state);
+        write_atomic(&dir.join(NOISE_FILE), output::noise_csv(&noise).as_bytes())?;
+    }
     write_atomic(
         &dir.join(TASK_FILE),
         metadata(job, task, layout, non_finite, info).as_bytes(),
@@ -83,7 +89,14 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
     put("job_file", quote(&job.file));
     put("task", quote(&task.name));
     put("task_index", task.index.to_string());
-    put("samples", job.render.samples.to_string());
+    match job.render.target {
+        None => put("samples", job.render.samples.to_string()),
+        Some(t) => {
+            put("noise_target", format!("{:?}", t.relative_se));
+            put("pilot_samples", t.pilot.to_string());
+            put("max_samples", t.max_samples.to_string());
+        }
+    }
     put("paths", layout.paths(crate::run::shard::Shard::WHOLE).to_string());
     put("non_finite_samples", non_finite.to_string());
     put("shards", info.shards.to_string());

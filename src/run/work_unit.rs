@@ -20,9 +20,10 @@ use std::time::{Duration, Instant};
 use crate::error::Result;
 use crate::film::fluxes::{self};
 use crate::film::image::{self, PixelSampling};
+use crate::film::pixel_counts::PixelCounts;
 use crate::film::tally::{self, BLOCK, Tally};
 use crate::job::{Job, Sensor, Task};
-use crate::run::layout::{Estimate, EstimateKind, Layout, UnitState};
+use crate::run::layout::{EstimateKind, Layout, Stage, UnitState};
 use crate::sampling::stream::Channels;
 use crate::transport::tracer::Scene;
 
@@ -36,6 +37,9 @@ pub struct Control<'a> {
     pub checkpoint: &'a (dyn Fn(&UnitState) -> Result<()> + Sync),
     /// Called with the paths traced, as they are.
     pub progress: &'a (dyn Fn(u64) + Sync),
+    /// Called with the paths a noise target's allocation adds to the
+    /// unit's work (known once its pilot is done).
+    pub allocated: &'a (dyn Fn(u64) + Sync),
 }
 
 impl Control<'_> {
@@ -47,6 +51,7 @@ impl Control<'_> {
             checkpoint_every: None,
             checkpoint: &no_checkpoint,
             progress,
+            allocated: &|_| {},
         }
     }
 }
@@ -92,8 +97,11 @@ pub const WAVE_SECONDS: f64 = 1.0;
 /// The work of a wave of about `paths` paths: items of an image (a wave
 /// may hold less than one sample per pixel), blocks of a direction or flux
 /// (at least one per thread).
-fn wave_size(kind: EstimateKind, paths: u64, layout: &Layout) -> u64 {
-    match kind {
+fn wave_size(e: usize, paths: u64, layout: &Layout) -> u64 {
+    let threads = rayon::current_num_threads() as u64;
+    match layout.estimates[e].kind {
+        // Every item of a targeted image is a path.
+        EstimateKind::Pixels { .. } if layout.allocation[e].is_some() => paths.max(threads),
         EstimateKind::Pixels { .. } => {
             let active = layout.active.as_ref().map_or(1, |a| a.count().max(1));
             let items = paths as u128 * layout.pixels as u128 / active as u128;
@@ -106,11 +114,12 @@ fn wave_size(kind: EstimateKind, paths: u64, layout: &Layout) -> u64 {
 /// Renders what is left of `state` (in the current rayon pool): estimate
 /// after estimate, wave after wave; between waves, writes a checkpoint when
 /// `checkpoint_every` has passed since the last, and on a stop request
-/// writes one and returns [`Outcome::Stopped`].
+/// writes one and returns [`Outcome::Stopped`]. A noise target's
+/// estimates are allocated (in `layout`) as their pilots finish.
 pub fn run(
     job: &Job,
     task: &Task,
-    layout: &Layout,
+    layout: &mut Layout,
     shared: Option<Scene>,
     state: &mut UnitState,
     control: &Control,
@@ -126,7 +135,7 @@ pub fn run(
     let mut wave_paths = layout.wave_paths;
     // The pixels' solid angles, computed when an image's first wave needs them.
     let mut weights: Option<Vec<f64>> = None;
-    let stop = |state: &UnitState| -> Result<Outcome> {
+    let stop = |layout: &Layout, state: &UnitState| -> Result<Outcome> {
         let checkpoint = layout.done_paths(state) > 0;
         if checkpoint {
             (control.checkpoint)(state)?;
@@ -134,35 +143,44 @@ pub fn run(
         Ok(Outcome::Stopped { checkpoint })
     };
     for e in 0..layout.estimates.len() {
+        if layout.allocation[e].is_none() {
+            layout.allocate(state);
+            if layout.allocation[e].is_some() {
+                (control.allocated)(layout.paths_of(e, &layout.range(e, state.shard)));
+            }
+        }
         let est = layout.estimates[e];
         let range = layout.range(e, state.shard);
+        // A targeted image's samples per pixel in this shard.
+        let counts = layout.pixel_counts(e, state.shard);
         while state.done[e] < range.end - range.start {
             if control.stop.load(Ordering::SeqCst) {
-                return stop(state);
+                return stop(layout, state);
             }
             if let (Sensor::Image(camera), None) = (&job.render.sensor, &weights) {
                 match image::pixel_weights_until(camera, control.stop) {
                     Some(w) => weights = Some(w),
-                    None => return stop(state),
+                    None => return stop(layout, state),
                 }
             }
             let start = range.start + state.done[e];
-            let work = start..(start + wave_size(est.kind, wave_paths, layout)).min(range.end);
+            let work = start..(start + wave_size(e, wave_paths, layout)).min(range.end);
             let context = RunContext {
                 job,
                 task,
                 layout,
                 weights: weights.as_deref().unwrap_or(&[]),
+                counts: counts.as_ref(),
             };
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
             let scene = scenes.of(est.kind.channels());
             match est.kind {
                 EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } => {
-                    radiance_wave(scene, &context, &est, work.clone(), tallies)
+                    radiance_wave(scene, &context, e, work.clone(), tallies)
                 }
                 EstimateKind::Flux { up, .. } => {
-                    tally::tally_blocks(work.clone(), layout.samples, est.key, tallies, |s, out| {
+                    tally::tally_blocks(work.clone(), layout.samples_of(e), est.key, tallies, |s, out| {
                         fluxes::flux_sample(scene, altitude_km, up, s, out)
                     })
                 }
@@ -187,35 +205,33 @@ pub fn run(
 }
 
 /// What a wave needs besides its scene and its work: the job and task, the
-/// layout and the pixels' solid angles (empty for directions).
+/// layout, the pixels' solid angles (empty for directions) and a targeted
+/// image's samples per pixel.
 struct RunContext<'a> {
     job: &'a Job,
     task: &'a Task,
     layout: &'a Layout,
     weights: &'a [f64],
+    counts: Option<&'a PixelCounts>,
 }
 
-/// One wave (`work`) of a direction's sample blocks or of an image's items,
-/// added to `tallies`.
-fn radiance_wave(
-    scene: &Scene,
-    context: &RunContext,
-    est: &Estimate,
-    work: std::ops::Range<u64>,
-    tallies: &mut [Tally],
-) {
+/// One wave (`work`) of estimate `e`'s sample blocks (a direction) or
+/// items (an image), added to `tallies`.
+fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::Range<u64>, tallies: &mut [Tally]) {
     let RunContext {
         job,
         task,
         layout,
         weights,
+        counts,
     } = *context;
+    let est = &layout.estimates[e];
     let (altitude_km, sun) = (task.observer_altitude_km, task.sun.direction);
     match (&job.render.sensor, est.kind) {
         (Sensor::Directions(directions), EstimateKind::Direction { direction, .. }) => {
             let dir = directions[direction];
             let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
-            tally::tally_blocks(work, layout.samples, est.key, tallies, |s, out| {
+            tally::tally_blocks(work, layout.samples_of(e), est.key, tallies, |s, out| {
                 scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         }
@@ -226,13 +242,16 @@ fn radiance_wave(
                 filter: job.render.pixel_filter,
                 frame: job.render.stokes_frame,
                 sun,
-                samples: layout.samples,
+                samples: layout.samples_of(e),
                 seed: est.key.seed,
                 render: est.key.render,
+                pilot: est.stage == Stage::Pilot,
             };
-            image::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, |v, e1, s, out| {
-                scene.radiance_sample(altitude_km, v, e1, s, out)
-            })
+            let radiance = |v, e1, s: &mut _, out: &mut _| scene.radiance_sample(altitude_km, v, e1, s, out);
+            match counts {
+                Some(counts) => image::render_counted_into(&sampling, counts, work, tallies, est.values, radiance),
+                None => image::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, radiance),
+            }
         }
         _ => unreachable!("direction estimates belong to directions sensors, pixels to images"),
     }
@@ -242,42 +261,61 @@ fn radiance_wave(
 mod tests {
     use super::*;
     use crate::job::Job;
+    use crate::run::allocation::Allocation;
     use crate::run::layout::{Layout, UnitState};
     use crate::run::shard::Shard;
 
     fn job(extra: &str) -> Job {
+        job_with("samples = 3000", extra)
+    }
+
+    /// A job with `samples` (the `[render]` keys of its sample count) and
+    /// the sections `extra`.
+    fn job_with(samples: &str, extra: &str) -> Job {
         let text = format!(
-            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[atmosphere]\naerosol = \"none\"\n[render]\nsamples = 3000\nseed = 5\n{extra}"
+            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\n[atmosphere]\naerosol = \"none\"\n[render]\n{samples}\nseed = 5\n{extra}"
         );
         Job::parse(&text, "test.toml", std::path::Path::new(".")).unwrap()
     }
 
+    /// Sample counts of the tests: fixed, and a noise target.
+    const SAMPLES: [&str; 2] = [
+        "samples = 3000",
+        "noise_target = 0.05\npilot_samples = 16\nmax_samples = 5000",
+    ];
+
     fn run_all(job: &Job, shard: Shard, control: &Control) -> (Layout, UnitState, Outcome) {
         let task = &job.tasks[0];
         let shared = job.spectral_scene(task);
-        let layout = Layout::new(job, task, shared.is_some());
+        let mut layout = Layout::new(job, task, shared.is_some());
         let mut state = layout.empty_state(job, task, shard);
-        let outcome = run(job, task, &layout, shared, &mut state, control).unwrap();
+        let outcome = run(job, task, &mut layout, shared, &mut state, control).unwrap();
         (layout, state, outcome)
     }
 
     #[test]
     fn shards_add_up_to_the_whole_task() {
-        for extra in [
-            "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0, 90.0]\n",
-            "shared_wavelengths = false\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [30.0]\nazimuth_deg = [180.0]\n",
-            "[sensor]\ntype = \"fisheye\"\nresolution = 6\n",
-        ] {
-            let j = job(extra);
+        for (samples, extra) in SAMPLES.into_iter().flat_map(|s| {
+            [
+                "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0, 90.0]\n",
+                "shared_wavelengths = false\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [30.0]\nazimuth_deg = [180.0]\n",
+                "[sensor]\ntype = \"fisheye\"\nresolution = 6\n",
+                "shared_wavelengths = false\n[sensor]\ntype = \"fisheye\"\nresolution = 5\n",
+            ]
+            .map(move |e| (s, e))
+        }) {
+            let j = job_with(samples, extra);
             let quiet = |_| {};
             let (layout, whole, _) = run_all(&j, Shard::WHOLE, &Control::none(&quiet));
             assert!(whole.is_complete(&layout));
             let mut merged: Option<UnitState> = None;
             for k in 1..=3 {
-                let (_, part, _) = run_all(&j, Shard::new(k, 3).unwrap(), &Control::none(&quiet));
+                let (part_layout, part, _) = run_all(&j, Shard::new(k, 3).unwrap(), &Control::none(&quiet));
+                // Every shard allocates alike, from the same pilot.
+                assert_eq!(part_layout.allocation, layout.allocation);
                 match &mut merged {
                     None => merged = Some(part),
-                    Some(m) => m.add(&part),
+                    Some(m) => m.add(&part, &layout),
                 }
             }
             let merged = merged.unwrap();
@@ -293,22 +331,35 @@ mod tests {
             }
             assert!(compared > 0);
             assert!(whole.tallies.iter().flatten().any(|t| t.sum[0] > 0.0));
+            if layout.target.is_some() {
+                // The allocation varies, so shards split uneven counts.
+                assert!(layout.is_allocated());
+                assert!(layout.allocation.iter().flatten().any(|a| match a {
+                    Allocation::Single(n) => *n > 16 && *n < 5000,
+                    Allocation::Pixels(n) => n.iter().max() > n.iter().filter(|&&n| n > 0).min(),
+                }));
+            }
         }
     }
 
     #[test]
     fn stopping_and_resuming_is_bit_identical() {
-        for extra in [
-            "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
-            "[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
-        ] {
-            let j = job(extra);
+        for (samples, extra) in SAMPLES.into_iter().flat_map(|s| {
+            [
+                "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
+                "[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
+            ]
+            .map(move |e| (s, e))
+        }) {
+            let j = job_with(samples, extra);
             let quiet = |_| {};
-            let (mut layout, whole, _) = run_all(&j, Shard::WHOLE, &Control::none(&quiet));
-            // Small waves, so that an image stops several times.
+            let (_, whole, _) = run_all(&j, Shard::WHOLE, &Control::none(&quiet));
+            let task = &j.tasks[0];
+            // A fresh layout (a resumed run allocates from its checkpoint),
+            // with small waves, so that an image stops several times.
+            let mut layout = Layout::new(&j, task, j.spectral_scene(task).is_some());
             layout.wave_paths = 1000;
             layout.adaptive_waves = false;
-            let task = &j.tasks[0];
             let mut state = layout.empty_state(&j, task, Shard::WHOLE);
             let stop = AtomicBool::new(false);
             let saved = std::sync::Mutex::new(Vec::new());
@@ -328,16 +379,23 @@ mod tests {
                 checkpoint_every: None,
                 checkpoint: &checkpoint,
                 progress: &progress,
+                allocated: &|_| {},
             };
             let mut stops = 0;
             loop {
-                let outcome = run(&j, task, &layout, j.spectral_scene(task), &mut state, &control).unwrap();
+                let outcome = run(&j, task, &mut layout, j.spectral_scene(task), &mut state, &control).unwrap();
                 if outcome == Outcome::Complete {
                     break;
                 }
                 stops += 1;
-                // Resume from the checkpoint, not from the live state.
+                // Resume from the checkpoint, not from the live state, with
+                // the layout a new process makes of it.
                 state = saved.lock().unwrap().last().unwrap().clone();
+                let (wave_paths, adaptive_waves) = (layout.wave_paths, layout.adaptive_waves);
+                layout = Layout::new(&j, task, j.spectral_scene(task).is_some());
+                (layout.wave_paths, layout.adaptive_waves) = (wave_paths, adaptive_waves);
+                layout.allocate(&state);
+                assert!(layout.fits(&state));
                 stop.store(false, Ordering::SeqCst);
             }
             assert!(stops >= 1, "{extra}: never stopped");
@@ -382,6 +440,7 @@ mod tests {
             checkpoint_every: Some(Duration::ZERO),
             checkpoint: &checkpoint,
             progress: &progress,
+            allocated: &|_| {},
         };
         let (layout, state, outcome) = run_all(&j, Shard::WHOLE, &control);
         assert_eq!(outcome, Outcome::Complete);

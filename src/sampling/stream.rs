@@ -10,8 +10,10 @@
 //!   calibration renders of `atmosim plan`; a transmittance table's words are
 //!   its task and its table point.
 //! - `estimate`: a direction's or a pixel's index (below 2⁴⁰), `2⁴⁰ + k` for
-//!   uvspec's azimuthal average of its k-th `umu`, and the top values of u64
-//!   for the hemispheric estimates (fluxes, uvspec's mean intensities).
+//!   uvspec's azimuthal average of its k-th `umu`, `2⁴¹ + d` for the pilot
+//!   of a noise target at direction or pixel `d`, and the top values of u64
+//!   for the hemispheric estimates (fluxes, their pilots, uvspec's mean
+//!   intensities).
 //!
 //! The values are those of every earlier release: renders keep their bits.
 
@@ -51,6 +53,13 @@ pub enum Estimate {
     MeanIntensityDown,
     /// uvspec's mean intensity of the light travelling up.
     MeanIntensityUp,
+    /// The pilot of a noise target at a direction or pixel, by index: its
+    /// samples set the allocation and are independent of the estimate's own.
+    Pilot(usize),
+    /// The pilot of the downward irradiance.
+    PilotFluxDown,
+    /// The pilot of the upward irradiance.
+    PilotFluxUp,
 }
 
 /// The channel word of shared paths.
@@ -95,10 +104,26 @@ impl Estimate {
         if up { Estimate::FluxUp } else { Estimate::FluxDown }
     }
 
+    /// The pilot of this estimate (a noise target's first stage): its own
+    /// streams, never those of the estimate.
+    pub fn pilot(self) -> Estimate {
+        match self {
+            Estimate::Direction(d) | Estimate::Pixel(d) | Estimate::Pilot(d) => Estimate::Pilot(d),
+            Estimate::FluxDown | Estimate::PilotFluxDown => Estimate::PilotFluxDown,
+            Estimate::FluxUp | Estimate::PilotFluxUp => Estimate::PilotFluxUp,
+            Estimate::AzimuthalAverage(_) | Estimate::MeanIntensityDown | Estimate::MeanIntensityUp => {
+                unreachable!("uvspec's estimates have no noise target")
+            }
+        }
+    }
+
     fn word(self) -> u64 {
         match self {
             Estimate::Direction(d) | Estimate::Pixel(d) => d as u64,
             Estimate::AzimuthalAverage(k) => INDEX_LIMIT + k as u64,
+            Estimate::Pilot(d) => 2 * INDEX_LIMIT + d as u64,
+            Estimate::PilotFluxDown => u64::MAX - 5,
+            Estimate::PilotFluxUp => u64::MAX - 6,
             Estimate::FluxDown => u64::MAX - 1,
             Estimate::FluxUp => u64::MAX - 2,
             Estimate::MeanIntensityDown => u64::MAX - 3,
@@ -172,6 +197,10 @@ mod tests {
             Estimate::Direction(INDEX_LIMIT as usize - 1),
             Estimate::AzimuthalAverage(0),
             Estimate::AzimuthalAverage(1000),
+            Estimate::Pilot(0),
+            Estimate::Pilot(INDEX_LIMIT as usize - 1),
+            Estimate::PilotFluxDown,
+            Estimate::PilotFluxUp,
         ]
         .iter()
         .map(|e| e.word())

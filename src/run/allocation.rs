@@ -1,0 +1,146 @@
+//! A noise target's allocation: from the pilot's sums of a direction, flux
+//! or pixel, the samples it needs for the target relative standard error of
+//! I in every channel and albedo.
+//!
+//! Two stages keep the estimate unbiased. The pilot's samples (streams of
+//! their own, [`crate::sampling::stream::Estimate::pilot`]) only decide how
+//! many samples each direction or pixel gets; the result is the mean of
+//! those allocated samples alone, which are independent of the pilot, so
+//! its expectation given the allocation is the radiance whatever the
+//! allocation is. (Folding the pilot's samples into the mean, or stopping
+//! a pixel when its own running error looks small enough, would tie the
+//! count to the values counted, and bias the mean.)
+//!
+//! The allocation of a value with per-sample variance σ² and mean μ is
+//! σ²/(μ²t²) samples; a direction or pixel takes the most any of its
+//! channels and albedos needs (values whose pilot mean is 0, such as the
+//! ground at albedo 0 seen from the ground, are left out). An image pixel
+//! takes the most of itself and its eight neighbours: a pilot of a few
+//! dozen samples often misses the rare bright paths of a pixel (near the
+//! sun, at the horizon) that its neighbours catch. The count is then held
+//! between the pilot's count and the cap (`render.max_samples`).
+
+use crate::film::tally::Tally;
+use crate::job::NoiseTarget;
+
+/// A targeted estimate's samples: per direction or flux, or per pixel (0
+/// for a pixel that is not traced).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Allocation {
+    Single(u64),
+    Pixels(Vec<u64>),
+}
+
+/// Samples a direction or pixel needs, from its pilot's tallies (one per
+/// value): the most over the values of σ²/(μ²t²), as a real number; 0 when
+/// no value has a mean.
+pub fn needed(tallies: &[Tally], relative_se: f64) -> f64 {
+    tallies
+        .iter()
+        .filter(|t| t.samples > t.non_finite + 1)
+        .filter_map(|t| {
+            let n = (t.samples - t.non_finite) as f64;
+            let mean = t.sum[0] / n;
+            if mean.abs() <= 0.0 || !mean.is_finite() {
+                return None;
+            }
+            let variance = ((t.sum_sq[0] - t.sum[0] * mean) / (n - 1.0)).max(0.0);
+            Some(variance / (mean * mean * relative_se * relative_se))
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The samples of a real-valued need, between the pilot's count and the cap.
+fn clamp(need: f64, target: &NoiseTarget) -> u64 {
+    let n = if need.is_finite() { need.ceil() } else { f64::MAX };
+    (n.min(target.max_samples as f64) as u64).clamp(target.pilot, target.max_samples)
+}
+
+/// The allocation of a direction or flux from its pilot's tallies.
+pub fn single(tallies: &[Tally], target: &NoiseTarget) -> u64 {
+    clamp(needed(tallies, target.relative_se), target)
+}
+
+/// The allocation of an image of `width` pixels a row from its pilot's
+/// tallies (`values` per pixel, pixel-major): each traced pixel takes the
+/// most that it and its neighbours need; untraced pixels (no pilot
+/// samples) get none.
+pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarget) -> Vec<u64> {
+    let values = values.max(1);
+    let count = tallies.len() / values;
+    let traced: Vec<bool> = (0..count).map(|p| tallies[p * values].samples > 0).collect();
+    let need: Vec<f64> = (0..count)
+        .map(|p| needed(&tallies[p * values..(p + 1) * values], target.relative_se))
+        .collect();
+    let width = width.max(1);
+    let height = count / width;
+    (0..count)
+        .map(|p| {
+            if !traced[p] {
+                return 0;
+            }
+            let (i, j) = ((p % width) as i64, (p / width) as i64);
+            let mut most = 0.0f64;
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let (x, y) = (i + di, j + dj);
+                    if x < 0 || y < 0 || x >= width as i64 || y >= height as i64 {
+                        continue;
+                    }
+                    let q = y as usize * width + x as usize;
+                    if traced[q] {
+                        most = most.max(need[q]);
+                    }
+                }
+            }
+            clamp(most, target)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::polarization::stokes::Stokes;
+
+    fn tally(values: &[f64]) -> Tally {
+        let mut t = Tally::default();
+        for &v in values {
+            t.add(&Stokes::new(v, 0.0, 0.0, 0.0));
+        }
+        t
+    }
+
+    const TARGET: NoiseTarget = NoiseTarget {
+        relative_se: 0.1,
+        pilot: 4,
+        max_samples: 1000,
+    };
+
+    #[test]
+    fn the_need_is_the_relative_variance_over_the_target_squared() {
+        // Mean 2, sample variance 8/3 (values 0, 4, 0, 4): 2/3 / 0.01.
+        let t = tally(&[0.0, 4.0, 0.0, 4.0]);
+        assert!((needed(&[t], 0.1) - 66.666_666_666_666_67).abs() < 1e-9);
+        // The worst value sets the need; a zero mean is left out.
+        let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
+        let zero = tally(&[0.0; 4]);
+        assert!((needed(&[flat, t, zero], 0.1) - needed(&[t], 0.1)).abs() < 1e-12);
+        assert_eq!(needed(&[zero], 0.1), 0.0);
+        assert_eq!(single(&[t], &TARGET), 67);
+        assert_eq!(single(&[flat], &TARGET), 4);
+        assert_eq!(single(&[tally(&[0.0, 0.0, 0.0, 1e6])], &TARGET), 1000);
+    }
+
+    #[test]
+    fn a_pixel_takes_the_most_of_its_neighbourhood() {
+        // 4 × 3 pixels, one value each; pixel (1, 1) noisy, (3, 2) untraced.
+        let noisy = tally(&[0.0, 4.0, 0.0, 4.0]);
+        let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
+        let mut t = vec![flat; 12];
+        t[5] = noisy;
+        t[11] = Tally::default();
+        let n = pixels(&t, 1, 4, &TARGET);
+        assert_eq!(n, vec![67, 67, 67, 4, 67, 67, 67, 4, 67, 67, 67, 0]);
+    }
+}
