@@ -13,15 +13,45 @@ use std::time::Instant;
 
 use crate::film::directions::{render_directions, render_directions_all};
 use crate::job::{Job, Sensor, Task};
-use crate::run::layout::Layout;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use crate::run::allocation::Allocation;
+use crate::run::layout::{EstimateKind, Layout, Stage};
 use crate::run::shard::Shard;
-use crate::sampling::stream::Render;
+use crate::run::work_unit::{self, Control};
+use crate::sampling::stream::{Channels, Render};
 use crate::sensor::direction::Direction;
 
-/// Paths of one task (shared spectral paths and single-wavelength paths).
-pub fn task_paths(job: &Job, task: &Task) -> u64 {
-    let (shared, single) = layout(job, task).paths_by_channels(Shard::WHOLE);
+/// Paths of one task (shared spectral paths and single-wavelength paths)
+/// at `rates` (whose pilot says what a noise target allocates).
+pub fn task_paths(job: &Job, task: &Task, rates: &Rates) -> u64 {
+    let (shared, single) = paths_by_channels(job, task, rates);
     shared + single
+}
+
+/// Paths of one task along shared spectral paths and at single
+/// wavelengths: with a noise target, its pilot's and, per direction or
+/// traced pixel, the calibration's mean allocation.
+fn paths_by_channels(job: &Job, task: &Task, rates: &Rates) -> (u64, u64) {
+    let layout = layout(job, task);
+    let mut paths = (0, 0);
+    for (e, estimate) in layout.estimates.iter().enumerate() {
+        let n = match estimate.stage {
+            Stage::Targeted { .. } => {
+                let units = match estimate.kind {
+                    EstimateKind::Pixels { .. } => layout.active.as_ref().map_or(0, |a| a.count()),
+                    _ => 1,
+                };
+                (units as f64 * rates.samples.unwrap_or(0.0)).round() as u64
+            }
+            _ => layout.paths_of(e, &layout.range(e, Shard::WHOLE)),
+        };
+        match estimate.kind.channels() {
+            Channels::Shared => paths.0 += n,
+            Channels::One(_) => paths.1 += n,
+        }
+    }
+    paths
 }
 
 /// The estimates of a task.
@@ -89,18 +119,22 @@ impl Calibration {
     }
 }
 
-/// Calibrated throughputs, paths per second on one core.
+/// Calibrated throughputs, paths per second on one core, and what a noise
+/// target allocates.
 #[derive(Debug, Clone, Copy)]
 pub struct Rates {
     /// Paths at one wavelength.
     pub single: f64,
     /// Shared spectral paths (all channels), when the task has them.
     pub shared: Option<f64>,
+    /// With a noise target: the mean samples its pilot allocates per
+    /// direction or traced pixel.
+    pub samples: Option<f64>,
 }
 
 /// Core-seconds of one task at `rates`.
 pub fn task_core_seconds(job: &Job, task: &Task, rates: &Rates) -> f64 {
-    let (shared, single) = layout(job, task).paths_by_channels(Shard::WHOLE);
+    let (shared, single) = paths_by_channels(job, task, rates);
     single as f64 / rates.single.max(1e-9) + shared as f64 / rates.shared.unwrap_or(rates.single).max(1e-9)
 }
 
@@ -155,7 +189,46 @@ fn calibrate_task(job: &Job, task: &Task) -> Rates {
                 render_directions_all(&shared, alt, &directions, n, seed, Render::Calibration);
             })
         }),
+        samples: job.render.target.map(|_| pilot_allocation(job, task)),
     }
+}
+
+/// Largest side of the image whose pilot calibrates a noise target.
+const PILOT_IMAGE_WIDTH: usize = 64;
+
+/// The mean samples a noise target allocates per direction or traced
+/// pixel of `task`, from its pilot: of the task's own directions, or of
+/// its camera at a width of at most [`PILOT_IMAGE_WIDTH`] (coarser pixels
+/// vary more within, so this errs high).
+fn pilot_allocation(job: &Job, task: &Task) -> f64 {
+    let mut small = job.clone();
+    if let Sensor::Image(camera) = &mut small.render.sensor {
+        *camera = camera.with_width_at_most(PILOT_IMAGE_WIDTH);
+    }
+    let shared = small.spectral_scene(task);
+    let mut layout = Layout::new(&small, task, shared.is_some());
+    let mut state = layout.empty_state(&small, task, Shard::WHOLE);
+    // Stop once the pilot has allocated the samples.
+    let stop = AtomicBool::new(false);
+    let allocated = |_| stop.store(true, Ordering::SeqCst);
+    let control = Control {
+        allocated: &allocated,
+        stop: &stop,
+        ..Control::none(&|_| {})
+    };
+    if work_unit::run(&small, task, &mut layout, shared, &mut state, &control).is_err() {
+        return 0.0;
+    }
+    let counts: Vec<u64> = layout
+        .allocation
+        .iter()
+        .flatten()
+        .flat_map(|a| match a {
+            Allocation::Single(n) => vec![*n],
+            Allocation::Pixels(n) => n.iter().copied().filter(|&n| n > 0).collect(),
+        })
+        .collect();
+    counts.iter().sum::<u64>() as f64 / counts.len().max(1) as f64
 }
 
 /// Writes the plan: one line per task, then the totals.
@@ -168,17 +241,32 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
             format!("{w}x{h} image")
         }
     };
+    let samples = match job.render.target {
+        None => format!("{} samples", job.render.samples),
+        Some(t) => format!(
+            "samples to a relative standard error of I of {} (pilot {}, at most {})",
+            t.relative_se, t.pilot, t.max_samples
+        ),
+    };
     writeln!(
         out,
-        "# {}: {} tasks; each {sensor}, {} wavelengths ({} albedos from the same paths) × {} samples",
+        "# {}: {} tasks; each {sensor}, {} wavelengths ({} albedos from the same paths) × {samples}",
         job.file,
         job.tasks.len(),
         job.wavelengths_nm.len(),
         job.render.albedos.len(),
-        job.render.samples
     )?;
     for (class, task, rates) in &calibration.classes {
         let tasks = job.tasks.iter().filter(|t| SunClass::of(t) == *class).count();
+        if let Some(n) = rates.samples {
+            writeln!(
+                out,
+                "# {} ({tasks} tasks): the pilot of task {task} allocates {n:.0} samples per direction or pixel \
+                 on average (an image's pilot at a width of at most {PILOT_IMAGE_WIDTH} pixels: coarse pixels \
+                 vary more within, so this errs high)",
+                class.label()
+            )?;
+        }
         match rates.shared {
             Some(shared) => writeln!(
                 out,
@@ -201,7 +289,7 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
     )?;
     let (mut total_paths, mut total_hours) = (0.0, 0.0);
     for t in &job.tasks {
-        let paths = task_paths(job, t);
+        let paths = task_paths(job, t, calibration.rates(t));
         let hours = calibration.task_core_seconds(job, t) / 3600.0;
         total_paths += paths as f64;
         total_hours += hours;

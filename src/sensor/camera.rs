@@ -124,6 +124,27 @@ impl Camera {
         }
     }
 
+    /// The same view at a width of at most `width` pixels (the height in
+    /// proportion, at least 1).
+    pub fn with_width_at_most(&self, width: usize) -> Camera {
+        let (w, h) = self.size();
+        if w <= width {
+            return *self;
+        }
+        let height = (h * width / w).max(1);
+        match *self {
+            Camera::Fisheye {
+                hemisphere, projection, ..
+            } => Camera::Fisheye {
+                resolution: width,
+                hemisphere,
+                projection,
+            },
+            Camera::Panorama { .. } => Camera::Panorama { width, height },
+            Camera::Sphere { .. } => Camera::Sphere { width, height },
+        }
+    }
+
     /// The viewing direction at image point (x, y); `None` outside a
     /// fisheye's circle.
     pub fn ray_at(&self, x: f64, y: f64) -> Option<PixelRay> {
