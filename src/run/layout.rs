@@ -368,6 +368,19 @@ impl Layout {
         paths
     }
 
+    /// Paths a shard traces in a noise target's pilots and in the rest.
+    pub fn paths_by_stage(&self, shard: Shard) -> (u64, u64) {
+        let mut paths = (0, 0);
+        for e in 0..self.estimates.len() {
+            let n = self.paths_of(e, &self.range(e, shard));
+            match self.estimates[e].stage {
+                Stage::Pilot => paths.0 += n,
+                _ => paths.1 += n,
+            }
+        }
+        paths
+    }
+
     /// Paths a shard traces in all.
     pub fn paths(&self, shard: Shard) -> u64 {
         (0..self.estimates.len())

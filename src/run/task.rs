@@ -17,7 +17,7 @@ use crate::sensor::camera::Camera;
 /// Renders every estimate of `task` (all its wavelengths and albedos);
 /// `progress(n)` is called with the paths traced, `log` once at the end
 /// with the task's paths and rate.
-fn render_whole(
+pub fn render_whole(
     job: &Job,
     task: &Task,
     progress: &(dyn Fn(u64) + Sync),
