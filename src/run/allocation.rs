@@ -119,17 +119,22 @@ mod tests {
 
     #[test]
     fn the_need_is_the_relative_variance_over_the_target_squared() {
-        // Mean 2, sample variance 8/3 (values 0, 4, 0, 4): 2/3 / 0.01.
+        // Mean 2, sample variance 16/3 (values 0, 4, 0, 4): (4/3) / 0.01.
         let t = tally(&[0.0, 4.0, 0.0, 4.0]);
-        assert!((needed(&[t], 0.1) - 66.666_666_666_666_67).abs() < 1e-9);
+        assert!((needed(&[t], 0.1) - 133.333_333_333_333_3).abs() < 1e-9);
         // The worst value sets the need; a zero mean is left out.
         let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
         let zero = tally(&[0.0; 4]);
         assert!((needed(&[flat, t, zero], 0.1) - needed(&[t], 0.1)).abs() < 1e-12);
         assert_eq!(needed(&[zero], 0.1), 0.0);
-        assert_eq!(single(&[t], &TARGET), 67);
+        assert_eq!(single(&[t], &TARGET), 134);
         assert_eq!(single(&[flat], &TARGET), 4);
-        assert_eq!(single(&[tally(&[0.0, 0.0, 0.0, 1e6])], &TARGET), 1000);
+        // One bright sample in four: σ²/μ² = 4, to 1 %: 40,000, capped.
+        let tight = NoiseTarget {
+            relative_se: 0.01,
+            ..TARGET
+        };
+        assert_eq!(single(&[tally(&[0.0, 0.0, 0.0, 1e6])], &tight), 1000);
     }
 
     #[test]
@@ -141,6 +146,6 @@ mod tests {
         t[5] = noisy;
         t[11] = Tally::default();
         let n = pixels(&t, 1, 4, &TARGET);
-        assert_eq!(n, vec![67, 67, 67, 4, 67, 67, 67, 4, 67, 67, 67, 0]);
+        assert_eq!(n, vec![134, 134, 134, 4, 134, 134, 134, 4, 134, 134, 134, 0]);
     }
 }
