@@ -1,15 +1,13 @@
 //! Rendering to a noise target (`render.noise_target`) from the command
-//! line: the same bytes for any thread count, a stopped and resumed render
-//! equal to an uninterrupted one, merged shards equal to one run, the
-//! per-pixel samples and the reached noise written with the image, and bad
-//! keys refused. (Unbiasedness: `image_polarization.rs`, many seeds against
-//! the exact single-scattering sky.)
+//! line: the same bytes for any thread count, the per-pixel samples and
+//! the reached noise written with the image, and bad keys refused.
+//! (Merged shards and a stopped and resumed render: `scale_out.rs`;
+//! unbiasedness: `image_polarization.rs`, many seeds against the exact
+//! single-scattering sky.)
 
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::Duration;
 
 use atmosim::io::exr::{ExrContents, read_exr};
 use common::{assert_refused, files_under, run_ok};
@@ -96,80 +94,6 @@ fn the_same_bytes_for_any_thread_count_with_samples_and_noise_written() {
         meta.contains("noise_target = 0.03") && meta.contains("max_samples = 3000"),
         "{meta}"
     );
-}
-
-#[test]
-fn a_stopped_noise_targeted_render_resumes_to_the_same_image() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    // Long enough on one thread for SIGTERM after 1 s to land mid-render
-    // (past the pilot: its allocation must come back from the checkpoint).
-    let job = JOB
-        .replace("resolution = 12", "resolution = 24")
-        .replace("0.03", "0.01")
-        .replace("3000", "20000");
-    write_job(d, &job);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_atmosim"))
-        .current_dir(d)
-        .args([
-            "render",
-            "job.toml",
-            "--out",
-            "sky",
-            "--checkpoint-every",
-            "0",
-            "--threads",
-            "1",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(Duration::from_millis(1500));
-    assert!(
-        child.try_wait().unwrap().is_none(),
-        "the render ended before SIGTERM: make it longer"
-    );
-    common::sigterm(&child);
-    let out = child.wait_with_output().unwrap();
-    let log = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(143), "{log}");
-    assert!(d.join("sky/checkpoints/0001-of-0001.state").exists(), "{log}");
-    run_ok(d, &["render", "job.toml", "--out", "sky", "--resume", "-q"]);
-    run_ok(d, &["render", "job.toml", "--out", "whole", "-q"]);
-    for f in ["image.exr", "noise.csv", "task.toml"] {
-        let a = std::fs::read(d.join("whole").join(f)).unwrap();
-        let b = std::fs::read(d.join("sky").join(f)).unwrap();
-        assert!(a == b, "{f} differs after resume");
-    }
-}
-
-#[test]
-fn merged_shards_equal_one_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    write_job(d, JOB);
-    run_ok(d, &["render", "job.toml", "--out", "whole", "-q"]);
-    for shard in ["3/3", "1/3", "2/3"] {
-        run_ok(d, &["render", "job.toml", "--out", "sharded", "--shard", shard, "-q"]);
-    }
-    run_ok(d, &["merge", "sharded", "-q"]);
-    let (a, b) = (exr(&d.join("whole/image.exr")), exr(&d.join("sharded/image.exr")));
-    assert_eq!(a.channels.len(), b.channels.len());
-    for (x, y) in a.channels.iter().zip(&b.channels) {
-        assert_eq!(x.name, y.name);
-        for (p, q) in x.samples.iter().zip(&y.samples) {
-            // Stored as f32: equal to its rounding (the counts exactly).
-            assert!(
-                (p - q).abs() <= 2.0 * f32::EPSILON * p.abs().max(q.abs()),
-                "{}: {p} vs {q}",
-                x.name
-            );
-        }
-    }
-    assert_eq!(channel(&a, "samples"), channel(&b, "samples"));
-    let meta = std::fs::read_to_string(d.join("sharded/task.toml")).unwrap();
-    assert!(meta.contains("shards = 3"), "{meta}");
 }
 
 #[test]

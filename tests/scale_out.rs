@@ -96,38 +96,62 @@ fn shards_merged_equal_a_single_run() {
     );
 }
 
-#[test]
-fn image_shards_merged_equal_a_single_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// `img.toml` in `d`: a fisheye of `resolution` pixels at 450 and 600 nm,
+/// sun 25° high, with the `[render]` keys `render`.
+fn image_job(d: &Path, resolution: u32, render: &str) -> PathBuf {
     job(
         d,
         "img.toml",
-        "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n\
-         [sensor]\ntype = \"fisheye\"\nresolution = 10\n[render]\nsamples = 40\n",
-    );
-    run_ok(d, &["render", "img.toml", "--out", "whole", "-q"]);
-    for shard in ["2/2", "1/2"] {
-        run_ok(d, &["render", "img.toml", "--out", "sharded", "--shard", shard, "-q"]);
-    }
-    run_ok(d, &["merge", "sharded", "-q"]);
-    let a = read_exr(&d.join("whole/image.exr")).unwrap();
-    let b = read_exr(&d.join("sharded/image.exr")).unwrap();
-    assert_eq!(a.channels.len(), b.channels.len());
-    let mut nonzero = 0;
-    for (x, y) in a.channels.iter().zip(&b.channels) {
-        assert_eq!(x.name, y.name);
-        for (p, q) in x.samples.iter().zip(&y.samples) {
-            // Stored as f32: equal to its rounding.
-            assert!(
-                (p - q).abs() <= 2.0 * f32::EPSILON * p.abs().max(q.abs()),
-                "{}: {p} vs {q}",
-                x.name
-            );
-            nonzero += (*p != 0.0) as usize;
+        &format!(
+            "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n\
+             [sensor]\ntype = \"fisheye\"\nresolution = {resolution}\n[render]\n{render}\n"
+        ),
+    )
+}
+
+#[test]
+fn image_shards_merged_equal_a_single_run() {
+    // Fixed samples, and a noise target (each pixel's allocated samples
+    // split between the shards; every shard traces the whole pilot).
+    for render in [
+        "samples = 40",
+        "noise_target = 0.03\npilot_samples = 16\nmax_samples = 3000",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        image_job(d, 10, render);
+        run_ok(d, &["render", "img.toml", "--out", "whole", "-q"]);
+        for shard in ["2/2", "1/2"] {
+            run_ok(d, &["render", "img.toml", "--out", "sharded", "--shard", shard, "-q"]);
         }
+        run_ok(d, &["merge", "sharded", "-q"]);
+        let a = read_exr(&d.join("whole/image.exr")).unwrap();
+        let b = read_exr(&d.join("sharded/image.exr")).unwrap();
+        assert_eq!(a.channels.len(), b.channels.len());
+        let mut nonzero = 0;
+        for (x, y) in a.channels.iter().zip(&b.channels) {
+            assert_eq!(x.name, y.name);
+            for (p, q) in x.samples.iter().zip(&y.samples) {
+                // Stored as f32: equal to its rounding (the counts exactly).
+                assert!(
+                    (p - q).abs() <= 2.0 * f32::EPSILON * p.abs().max(q.abs()),
+                    "{render}, {}: {p} vs {q}",
+                    x.name
+                );
+                nonzero += (*p != 0.0) as usize;
+            }
+        }
+        assert!(nonzero > 100);
+        // A noise target writes each pixel's samples, the same after merging.
+        let samples = |e: &atmosim::io::exr::ExrContents| {
+            e.channels
+                .iter()
+                .find(|c| c.name == "samples")
+                .map(|c| c.samples.clone())
+        };
+        assert_eq!(samples(&a), samples(&b));
+        assert_eq!(samples(&a).is_some(), render.contains("noise_target"), "{render}");
     }
-    assert!(nonzero > 100);
 }
 
 fn merge_fails(d: &Path, out: &str, expect: &str) {
@@ -284,14 +308,22 @@ fn kill_9_then_resume_equals_an_uninterrupted_run() {
 
 #[test]
 fn sigterm_writes_a_checkpoint_and_resume_completes_exactly() {
+    // Fixed samples, and a noise target (the checkpoint holds the pilot,
+    // and the resumed run allocates from it again).
+    for render in [
+        "samples = 8000",
+        "noise_target = 0.01\npilot_samples = 16\nmax_samples = 20000",
+    ] {
+        sigterm_then_resume(render);
+    }
+}
+
+/// An image render with the `[render]` keys `render`, stopped by SIGTERM
+/// and resumed, against an uninterrupted one.
+fn sigterm_then_resume(render: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    job(
-        d,
-        "img.toml",
-        "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n\
-         [sensor]\ntype = \"fisheye\"\nresolution = 24\n[render]\nsamples = 8000\n",
-    );
+    image_job(d, 24, render);
     // No periodic checkpoints: the one found must come from SIGTERM. One
     // thread, so the render lasts about 7 s on any machine with cores to
     // spare (CI's two included) and SIGTERM after 1 s lands mid-render.
@@ -333,6 +365,14 @@ fn sigterm_writes_a_checkpoint_and_resume_completes_exactly() {
         assert_eq!(x.name, y.name);
         assert!(x.samples == y.samples, "{} differs after resume", x.name);
     }
+    for f in ["task.toml", "noise.csv"] {
+        let (a, b) = (
+            std::fs::read(d.join("whole").join(f)),
+            std::fs::read(d.join("sky").join(f)),
+        );
+        assert_eq!(a.ok(), b.ok(), "{render}: {f} differs after resume");
+    }
+    assert_eq!(d.join("sky/noise.csv").exists(), render.contains("noise_target"));
     let meta = std::fs::read_to_string(d.join("sky/task.toml")).unwrap();
     assert!(meta.contains("non_finite_samples = 0"));
 }

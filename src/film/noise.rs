@@ -65,15 +65,8 @@ impl Noise {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::polarization::stokes::Stokes;
 
-    fn tally(values: &[f64]) -> Tally {
-        let mut t = Tally::default();
-        for &v in values {
-            t.add(&Stokes::new(v, 0.0, 0.0, 0.0));
-        }
-        t
-    }
+    use crate::film::tally::of_intensities as tally;
 
     #[test]
     fn relative_errors_of_the_traced_pixels_with_a_mean() {

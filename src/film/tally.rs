@@ -122,6 +122,16 @@ pub fn tally_blocks(
     }
 }
 
+/// The tally of samples whose I are `values` (Q, U, V zero): for tests.
+#[cfg(test)]
+pub(crate) fn of_intensities(values: &[f64]) -> Tally {
+    let mut t = Tally::default();
+    for &v in values {
+        t.add(&Stokes::new(v, 0.0, 0.0, 0.0));
+    }
+    t
+}
+
 /// The samples of `blocks`.
 pub fn block_samples(blocks: &std::ops::Range<u64>, samples: u64) -> u64 {
     (blocks.end * BLOCK).min(samples) - (blocks.start * BLOCK).min(samples)

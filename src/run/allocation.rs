@@ -101,15 +101,8 @@ pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarg
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::polarization::stokes::Stokes;
 
-    fn tally(values: &[f64]) -> Tally {
-        let mut t = Tally::default();
-        for &v in values {
-            t.add(&Stokes::new(v, 0.0, 0.0, 0.0));
-        }
-        t
-    }
+    use crate::film::tally::of_intensities as tally;
 
     const TARGET: NoiseTarget = NoiseTarget {
         relative_se: 0.1,
