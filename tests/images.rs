@@ -25,6 +25,7 @@ fn sampling<'a>(
 ) -> PixelSampling<'a> {
     PixelSampling {
         camera,
+        traced_rows: camera.size().1,
         weights,
         filter,
         frame: StokesFrame::Meridian,
@@ -167,4 +168,47 @@ fn images_are_mirror_symmetric_about_the_sun_vertical() {
         }
         cmp.assert_no_outlier(&format!("mirror symmetry {sensor}"));
     }
+}
+
+#[test]
+fn pixels_below_the_horizon_of_an_observer_on_the_ground_share_the_ground_view() {
+    // A sphere image seen from the ground: its lower rows are not traced
+    // but hold one estimate of the ground's radiance, traced straight down
+    // with 16 times a pixel's samples. It must be what each of those
+    // directions sees on its own (independent directions runs), with Q, U
+    // and V exactly 0 (a Lambertian depolarising ground at the eye).
+    let (j, cam) = camera_of(&format!(
+        "{SKY}[sensor]\ntype = \"sphere\"\nresolution = [8, 4]\n[render]\nsamples = 400\nseed = 7\n"
+    ));
+    let task = &j.tasks[0];
+    let (layout, state) = atmosim::run::task::render_whole(&j, task, &|_| {}, &|_| {}).unwrap();
+    assert_eq!(layout.traced_rows, 2);
+    let view = layout
+        .results(&state)
+        .find(|(e, _)| matches!(e.kind, atmosim::run::layout::EstimateKind::GroundView { .. }))
+        .map(|(_, t)| t[0])
+        .unwrap();
+    assert_eq!(view.samples, 16 * 400);
+    let image = atmosim::run::assemble::image_result(&j, &cam, &layout, &state);
+    let layer = &image.layers[0];
+    let ground = 2 * 8;
+    let (i0, se0) = (layer.mean[0][ground], layer.se[0][ground]);
+    assert!(i0 > 0.0 && se0 > 0.0);
+    for p in ground..32 {
+        assert_eq!((layer.mean[0][p], layer.se[0][p]), (i0, se0), "pixel {p}");
+        for k in 1..4 {
+            assert_eq!((layer.mean[k][p], layer.se[k][p]), (0.0, 0.0), "pixel {p} Stokes {k}");
+        }
+    }
+    // The sky's pixels have their own values.
+    assert!(layer.mean[0][..ground].iter().all(|&m| m > 0.0 && m != i0));
+    let scene = j.scene(0);
+    let downward = common::directions(&[(180.0, 0.0), (100.0, 30.0), (135.0, 200.0), (160.0, 90.0)]);
+    let reference = render_directions(&scene, 0.0, &downward, 6400, 99, Render::channel(0, 0));
+    let mut cmp = Comparison::default();
+    for (d, r) in reference.iter().enumerate() {
+        cmp.add(|| format!("direction {d}"), i0, se0, r.mean()[0], r.standard_error()[0]);
+        assert!(r.mean()[1].abs() + r.mean()[2].abs() == 0.0);
+    }
+    cmp.assert_no_outlier("ground view against downward directions");
 }

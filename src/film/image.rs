@@ -97,12 +97,18 @@ pub struct ActivePixels {
 }
 
 impl ActivePixels {
-    /// The active pixels of `camera`, from its geometry (O(rows)).
-    pub fn new(camera: &Camera) -> ActivePixels {
+    /// The active pixels of `camera` in its first `traced_rows` rows, from
+    /// its geometry (O(rows)); the rows below are not traced (they share
+    /// the ground view, see [`crate::run::layout::EstimateKind::GroundView`]).
+    pub fn new(camera: &Camera, traced_rows: usize) -> ActivePixels {
         let (width, height) = camera.size();
         let columns: Vec<(usize, usize)> = (0..height)
             .map(|j| {
-                let c = camera.active_columns(j);
+                let c = if j < traced_rows {
+                    camera.active_columns(j)
+                } else {
+                    0..0
+                };
                 (c.start, c.end)
             })
             .collect();
@@ -152,13 +158,16 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
     x / pixels + u64::from(x % pixels > p)
 }
 
-/// How pixels are sampled: the camera, the pixels' mean dΩ/dA, the filter,
-/// the Stokes frame (and the sun's direction, which the sun–view frame
-/// needs), samples per pixel, the seed and render that key the pixels'
-/// streams, and whether they are a noise target's pilot (streams of their own).
+/// How pixels are sampled: the camera, the rows that are traced (from the
+/// top; those below share the ground view), the pixels' mean dΩ/dA, the
+/// filter, the Stokes frame (and the sun's direction, which the sun–view
+/// frame needs), samples per pixel, the seed and render that key the
+/// pixels' streams, and whether they are a noise target's pilot (streams
+/// of their own).
 #[derive(Clone, Copy)]
 pub struct PixelSampling<'a> {
     pub camera: &'a Camera,
+    pub traced_rows: usize,
     pub weights: &'a [f64],
     pub filter: PixelFilter,
     pub frame: StokesFrame,
@@ -308,7 +317,7 @@ fn strata(samples: u64) -> u64 {
 
 /// Adds samples `range` (of the pixel's `total`, which set its strata) of
 /// one pixel to its `tallies`; false for a pixel entirely outside the
-/// image's circle (zero, no samples).
+/// image's circle (zero, no samples) or in a row that is not traced.
 fn render_pixel(
     sampling: &PixelSampling,
     (i, j): (usize, usize),
@@ -318,7 +327,7 @@ fn render_pixel(
     radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]),
 ) -> bool {
     let weight = sampling.weights[index];
-    if weight <= 0.0 {
+    if weight <= 0.0 || j >= sampling.traced_rows {
         return false;
     }
     // The pixel's frame: its centre's, carried to each sample's direction.
@@ -418,7 +427,7 @@ mod tests {
             hemisphere: Hemisphere::Up,
             projection: Projection::Equidistant,
         };
-        let active = ActivePixels::new(&cam);
+        let active = ActivePixels::new(&cam, 9);
         let weights = pixel_weights(&cam);
         let is_active: Vec<bool> = weights.iter().map(|w| *w > 0.0).collect();
         assert_eq!(active.count(), is_active.iter().filter(|a| **a).count() as u64);

@@ -3,6 +3,7 @@
 
 pub mod directions;
 pub mod fluxes;
+pub mod ground_view;
 pub mod image;
 pub mod noise;
 pub mod pixel_counts;

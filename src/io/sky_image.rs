@@ -6,6 +6,7 @@
 use std::path::Path;
 
 use crate::error::Result;
+use crate::film::ground_view::{GROUND_VIEW_SAMPLES, traced_rows};
 use crate::film::image::{ImageLayer, SkyImage};
 use crate::io::atomic::write_atomic;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
@@ -206,6 +207,19 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
                  (not in the means)",
                 t.relative_se, t.pilot, t.max_samples, t.pilot
             ),
+        }),
+        ("ground_view".into(), {
+            let (first, height) = (traced_rows(camera, task), camera.size().1);
+            if first < height {
+                format!(
+                    "rows {first} to {} (below the horizon of an observer on the ground) share one estimate of the \
+                     ground's radiance, traced straight down with {GROUND_VIEW_SAMPLES}x a pixel's samples (a noise \
+                     target: a quarter of its relative error)",
+                    height - 1
+                )
+            } else {
+                "none: every pixel traced".into()
+            }
         }),
         ("seed".into(), format!("{}", spec.seed)),
         ("non_finite_samples".into(), format!("{non_finite}")),

@@ -112,6 +112,15 @@ pub struct Task {
     pub atmosphere: Atmosphere,
 }
 
+impl Task {
+    /// Whether the observer stands on the ground (at its lowest level):
+    /// then every direction below the horizon sees the same radiance, the
+    /// ground's right at the eye.
+    pub fn observer_on_ground(&self) -> bool {
+        self.observer_altitude_km <= self.atmosphere.levels_km[0]
+    }
+}
+
 /// `vis059.4_elev+05.0_alt01000m`: the requested visibility, else the
 /// atmosphere's own ground visibility (`novis` without aerosol), the sun's
 /// elevation in degrees and the observer altitude in metres.

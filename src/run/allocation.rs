@@ -20,6 +20,7 @@
 //! sun, at the horizon) that its neighbours catch. The count is then held
 //! between the pilot's count and the cap (`render.max_samples`).
 
+use crate::film::ground_view::GROUND_VIEW_SAMPLES;
 use crate::film::tally::Tally;
 use crate::job::NoiseTarget;
 
@@ -54,6 +55,18 @@ pub fn needed(tallies: &[Tally], relative_se: f64) -> f64 {
 fn clamp(need: f64, target: &NoiseTarget) -> u64 {
     let n = if need.is_finite() { need.ceil() } else { f64::MAX };
     (n.min(target.max_samples as f64) as u64).clamp(target.pilot, target.max_samples)
+}
+
+/// The target of the ground view (`run::layout::EstimateKind::GroundView`),
+/// which many pixels share: a quarter of the pixels' relative error, up to
+/// [`GROUND_VIEW_SAMPLES`] times their cap, from the same pilot.
+pub fn ground_view(target: &NoiseTarget) -> NoiseTarget {
+    let k = GROUND_VIEW_SAMPLES;
+    NoiseTarget {
+        relative_se: target.relative_se / (k as f64).sqrt(),
+        max_samples: target.max_samples.saturating_mul(k),
+        ..*target
+    }
 }
 
 /// The allocation of a direction or flux from its pilot's tallies.

@@ -48,7 +48,7 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
                 }
                 Channels::One(w) => flux[w][up as usize] = tallies.clone(),
             },
-            EstimateKind::Pixels { .. } => {}
+            EstimateKind::Pixels { .. } | EstimateKind::GroundView { .. } => {}
         }
     }
     let mut result = RenderResult::default();
@@ -94,11 +94,7 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
     let na = spec.albedos.len();
     let mut layers = Vec::new();
     let mut samples = Vec::new();
-    for (est, tallies) in layout.results(state) {
-        let EstimateKind::Pixels { channels } = est.kind else {
-            continue;
-        };
-        let (per_value, non_finite) = image::split_values(tallies, est.values);
+    for (channels, per_value, non_finite) in pixel_tallies(camera, layout, state) {
         let wavelengths: Vec<usize> = match channels {
             Channels::Shared => (0..job.wavelengths_nm.len()).collect(),
             Channels::One(w) => vec![w],
@@ -130,6 +126,40 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
     }
 }
 
+/// Per image estimate (its channels), the tallies `[value][pixel]` of
+/// every pixel and the count of non-finite samples; the pixels of the rows
+/// that are not traced (below the horizon of an observer on the ground)
+/// hold the ground view's tallies, those outside a fisheye's circle none.
+fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Channels, Vec<Vec<Tally>>, u64)> {
+    let (width, height) = camera.size();
+    let ground: Vec<(Channels, &Vec<Tally>)> = layout
+        .results(state)
+        .filter_map(|(est, t)| match est.kind {
+            EstimateKind::GroundView { channels } => Some((channels, t)),
+            _ => None,
+        })
+        .collect();
+    let mut out = Vec::new();
+    for (est, tallies) in layout.results(state) {
+        let EstimateKind::Pixels { channels } = est.kind else {
+            continue;
+        };
+        let (mut per_value, mut non_finite) = image::split_values(tallies, est.values);
+        if let Some((_, view)) = ground.iter().find(|(c, _)| *c == channels) {
+            for j in layout.traced_rows..height {
+                for i in camera.active_columns(j) {
+                    for (v, list) in per_value.iter_mut().enumerate() {
+                        list[j * width + i] = view[v];
+                    }
+                }
+            }
+            non_finite += view.first().map_or(0, |t| t.non_finite);
+        }
+        out.push((channels, per_value, non_finite));
+    }
+    out
+}
+
 /// The noise a task's sums reached (against its noise target, or 0): per
 /// (wavelength, albedo), over the pixels or the viewing directions.
 pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, Noise)> {
@@ -138,23 +168,21 @@ pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, No
     let nw = job.wavelengths_nm.len();
     // Per (wavelength, albedo), the tallies of its pixels or directions.
     let mut per_value: Vec<Vec<Tally>> = vec![Vec::new(); nw * na];
+    let first = |channels: Channels| match channels {
+        Channels::Shared => 0,
+        Channels::One(w) => w,
+    };
     for (est, tallies) in layout.results(state) {
-        let first = match est.kind.channels() {
-            Channels::Shared => 0,
-            Channels::One(w) => w,
-        };
-        match est.kind {
-            EstimateKind::Flux { .. } => {}
-            EstimateKind::Direction { .. } => {
-                for (v, t) in tallies.iter().enumerate() {
-                    per_value[first * na + v].push(*t);
-                }
+        if let EstimateKind::Direction { channels, .. } = est.kind {
+            for (v, t) in tallies.iter().enumerate() {
+                per_value[first(channels) * na + v].push(*t);
             }
-            EstimateKind::Pixels { .. } => {
-                let (values, _) = image::split_values(tallies, est.values);
-                for (v, list) in values.into_iter().enumerate() {
-                    per_value[first * na + v] = list;
-                }
+        }
+    }
+    if let Sensor::Image(camera) = &job.render.sensor {
+        for (channels, values, _) in pixel_tallies(camera, layout, state) {
+            for (v, list) in values.into_iter().enumerate() {
+                per_value[first(channels) * na + v] = list;
             }
         }
     }

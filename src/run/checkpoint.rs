@@ -4,13 +4,16 @@
 //! Both carry the job text, so `merge` needs nothing but the output
 //! directory, and both are written atomically (temporary file, rename).
 //!
-//! Format (little-endian), version 3 (version 1 counted an image's work in
+//! Format (little-endian), version 4 (version 1 counted an image's work in
 //! samples per pixel, version 2 in items, see [`crate::film::image::ActivePixels`];
 //! version 3 has the layout of 2, and marks sums made since OPAC aerosol
 //! scatters by Mie phase matrices by default, so that no unit mixes them
-//! with Henyey–Greenstein sums of the same job text):
+//! with Henyey–Greenstein sums of the same job text; version 4 marks the
+//! layouts in which an image seen from the ground shares the ground view,
+//! [`crate::film::ground_view`], and whose pixels below the horizon are not
+//! traced):
 //! ```text
-//! "ATMOSIM-STATE-3\n"                       16 bytes
+//! "ATMOSIM-STATE-4\n"                       16 bytes
 //! job hash, job file, job directory, job text: each u64 length + UTF-8,
 //!                                           zero-padded to whole 8-byte words
 //! task, shard index, shard count            3 × u64
@@ -33,10 +36,11 @@ use crate::io::atomic::write_atomic_with;
 use crate::run::layout::UnitState;
 use crate::run::shard::Shard;
 
-const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-3\n";
+const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-4\n";
 /// The headers of the previous formats, refused with their own messages.
 const MAGIC_V1: &[u8; 16] = b"ATMOSIM-STATE-1\n";
 const MAGIC_V2: &[u8; 16] = b"ATMOSIM-STATE-2\n";
+const MAGIC_V3: &[u8; 16] = b"ATMOSIM-STATE-3\n";
 
 /// A unit's state with the job it belongs to.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +99,13 @@ impl StateFile {
                 "written by an older atmosim (state format 2), whose OPAC aerosol scattered by \
                  Henyey–Greenstein; finish it with that version (or with aerosol_phase = \"hg\" in a \
                  new render), or render the unit again",
+            ));
+        }
+        if bytes.starts_with(MAGIC_V3) {
+            return Err(bad(
+                "written by an older atmosim (state format 3), which traced every pixel below the horizon of an \
+                 observer on the ground and sampled paths differently; finish it with that version, or render \
+                 the unit again",
             ));
         }
         if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
@@ -344,6 +355,9 @@ mod tests {
         bytes[..16].copy_from_slice(MAGIC_V2);
         let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
         assert!(e.contains("state format 2") && e.contains("Henyey–Greenstein"), "{e}");
+        bytes[..16].copy_from_slice(MAGIC_V3);
+        let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
+        assert!(e.contains("state format 3") && e.contains("below the horizon"), "{e}");
         bytes[..16].copy_from_slice(MAGIC_V1);
         let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
         assert!(e.contains("state format 1"), "{e}");

@@ -8,6 +8,7 @@
 //! ([`Stage::Targeted`]), whose samples per direction or pixel the pilot's
 //! sums decide ([`crate::run::allocation`]) once the pilot is done.
 
+use crate::film::ground_view::{self, GROUND_VIEW_SAMPLES};
 use crate::film::image::ActivePixels;
 use crate::film::pixel_counts::PixelCounts;
 use crate::film::tally::{self, BLOCK, Tally};
@@ -27,6 +28,10 @@ pub enum EstimateKind {
     Flux { channels: Channels, up: bool },
     /// Every pixel of the image.
     Pixels { channels: Channels },
+    /// The ground seen by an observer standing on it, which every pixel of
+    /// the image's rows below the horizon ([`Layout::traced_rows`] and
+    /// below) shares ([`crate::film::ground_view`]).
+    GroundView { channels: Channels },
 }
 
 impl EstimateKind {
@@ -35,7 +40,8 @@ impl EstimateKind {
         match *self {
             EstimateKind::Direction { channels, .. }
             | EstimateKind::Flux { channels, .. }
-            | EstimateKind::Pixels { channels } => channels,
+            | EstimateKind::Pixels { channels }
+            | EstimateKind::GroundView { channels } => channels,
         }
     }
 }
@@ -74,6 +80,10 @@ pub struct Layout {
     /// The pixels that are traced (image sensors): how many paths a range
     /// of items holds (see [`ActivePixels`]).
     pub active: Option<ActivePixels>,
+    /// The image rows that are traced, from the top (all of them, unless the
+    /// observer stands on the ground: then the rows below the horizon share
+    /// the ground view, [`EstimateKind::GroundView`]).
+    pub traced_rows: usize,
     /// True when the wavelengths share their paths.
     pub shared: bool,
     /// Paths of the first wave (a wave: blocks of one direction, or the
@@ -101,7 +111,7 @@ impl Layout {
         let (nw, na) = (job.wavelengths_nm.len(), spec.albedos.len());
         let seed = spec.seed;
         let mut estimates = Vec::new();
-        let (mut pixels, mut active) = (0, None);
+        let (mut pixels, mut active, mut traced_rows) = (0, None, 0);
         match &spec.sensor {
             Sensor::Directions(directions) => {
                 if shared {
@@ -165,7 +175,8 @@ impl Layout {
                 }
             }
             Sensor::Image(camera) => {
-                let traced = ActivePixels::new(camera);
+                traced_rows = ground_view::traced_rows(camera, task);
+                let traced = ActivePixels::new(camera, traced_rows);
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
                 let channel_sets: Vec<Channels> = if shared {
@@ -174,25 +185,31 @@ impl Layout {
                     (0..nw).map(Channels::One).collect()
                 };
                 for channels in channel_sets {
+                    let render = Render::Task {
+                        task: task.index,
+                        channels,
+                    };
+                    let values = match channels {
+                        Channels::Shared => nw * na,
+                        Channels::One(_) => na,
+                    };
                     // Each pixel draws from its own stream (`Estimate::Pixel`
                     // with its index, in `film::image`); the key holds the
                     // render they share.
                     estimates.push(Estimate {
                         kind: EstimateKind::Pixels { channels },
-                        key: StreamKey::new(
-                            seed,
-                            Render::Task {
-                                task: task.index,
-                                channels,
-                            },
-                            stream::Estimate::Pixel(0),
-                        ),
-                        values: match channels {
-                            Channels::Shared => nw * na,
-                            Channels::One(_) => na,
-                        },
+                        key: StreamKey::new(seed, render, stream::Estimate::Pixel(0)),
+                        values,
                         stage: Stage::Fixed,
                     });
+                    if traced_rows < camera.size().1 {
+                        estimates.push(Estimate {
+                            kind: EstimateKind::GroundView { channels },
+                            key: StreamKey::new(seed, render, stream::Estimate::GroundView),
+                            values,
+                            stage: Stage::Fixed,
+                        });
+                    }
                 }
             }
         }
@@ -226,6 +243,7 @@ impl Layout {
             samples: spec.samples,
             pixels,
             active,
+            traced_rows,
             shared,
             wave_paths: 1 << 15,
             adaptive_waves: true,
@@ -260,6 +278,9 @@ impl Layout {
                     self.width,
                     &target,
                 )),
+                EstimateKind::GroundView { .. } => {
+                    Allocation::Single(allocation::single(tallies, &allocation::ground_view(&target)))
+                }
                 _ => Allocation::Single(allocation::single(tallies, &target)),
             });
         }
@@ -270,6 +291,9 @@ impl Layout {
     /// [`Layout::pixel_counts`]).
     pub fn samples_of(&self, e: usize) -> u64 {
         match (self.estimates[e].stage, &self.allocation[e]) {
+            (Stage::Fixed, _) if matches!(self.estimates[e].kind, EstimateKind::GroundView { .. }) => {
+                self.samples.saturating_mul(GROUND_VIEW_SAMPLES)
+            }
             (Stage::Fixed, _) => self.samples,
             (Stage::Pilot, _) => self.target.map_or(0, |t| t.pilot),
             (Stage::Targeted { .. }, Some(Allocation::Single(n))) => *n,

@@ -15,6 +15,7 @@ use crate::film::directions::{render_directions, render_directions_all};
 use crate::job::{Job, Sensor, Task};
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::film::ground_view::GROUND_VIEW_SAMPLES;
 use crate::run::allocation::Allocation;
 use crate::run::layout::{EstimateKind, Layout, Stage};
 use crate::run::shard::Shard;
@@ -40,6 +41,8 @@ fn paths_by_channels(job: &Job, task: &Task, rates: &Rates) -> (u64, u64) {
             Stage::Targeted { .. } => {
                 let units = match estimate.kind {
                     EstimateKind::Pixels { .. } => layout.active.as_ref().map_or(0, |a| a.count()),
+                    // A quarter of a pixel's relative error.
+                    EstimateKind::GroundView { .. } => GROUND_VIEW_SAMPLES,
                     _ => 1,
                 };
                 (units as f64 * rates.samples.unwrap_or(0.0)).round() as u64

@@ -176,7 +176,7 @@ pub fn run(
             let tallies = &mut state.tallies[e];
             let scene = scenes.of(est.kind.channels());
             match est.kind {
-                EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } => {
+                EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } | EstimateKind::GroundView { .. } => {
                     radiance_wave(scene, &context, e, work.clone(), tallies)
                 }
                 EstimateKind::Flux { up, .. } => {
@@ -235,9 +235,18 @@ fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::
                 scene.radiance_sample(altitude_km, v, e1, s, out)
             })
         }
+        (Sensor::Image(_), EstimateKind::GroundView { .. }) => {
+            // Straight down: every direction below the horizon sees the
+            // same unpolarised radiance (any axis will do).
+            let (v, e1) = (glam::DVec3::NEG_Z, glam::DVec3::X);
+            tally::tally_blocks(work, layout.samples_of(e), est.key, tallies, |s, out| {
+                scene.radiance_sample(altitude_km, v, e1, s, out)
+            })
+        }
         (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
             let sampling = PixelSampling {
                 camera,
+                traced_rows: layout.traced_rows,
                 weights,
                 filter: job.render.pixel_filter,
                 frame: job.render.stokes_frame,
@@ -301,6 +310,10 @@ mod tests {
                 "shared_wavelengths = false\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [30.0]\nazimuth_deg = [180.0]\n",
                 "[sensor]\ntype = \"fisheye\"\nresolution = 6\n",
                 "shared_wavelengths = false\n[sensor]\ntype = \"fisheye\"\nresolution = 5\n",
+                // From the ground: the lower rows share the ground view.
+                "[sensor]\ntype = \"sphere\"\nresolution = [6, 4]\n[ground]\nalbedo = [0.0, 0.3]\n",
+                "shared_wavelengths = false\n[sensor]\ntype = \"fisheye\"\nresolution = 4\nhemisphere = \"down\"\n\
+                 [ground]\nalbedo = 0.3\n",
             ]
             .map(move |e| (s, e))
         }) {
@@ -348,6 +361,7 @@ mod tests {
             [
                 "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
                 "[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
+                "[sensor]\ntype = \"sphere\"\nresolution = [6, 4]\n[ground]\nalbedo = 0.3\n",
             ]
             .map(move |e| (s, e))
         }) {

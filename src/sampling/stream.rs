@@ -60,6 +60,12 @@ pub enum Estimate {
     PilotFluxDown,
     /// The pilot of the upward irradiance.
     PilotFluxUp,
+    /// The radiance of the ground seen by an observer standing on it (the
+    /// same in every direction below the horizon), which an image's pixels
+    /// below the horizon share.
+    GroundView,
+    /// The pilot of the ground seen from the ground.
+    PilotGroundView,
 }
 
 /// The channel word of shared paths.
@@ -111,6 +117,7 @@ impl Estimate {
             Estimate::Direction(d) | Estimate::Pixel(d) | Estimate::Pilot(d) => Estimate::Pilot(d),
             Estimate::FluxDown | Estimate::PilotFluxDown => Estimate::PilotFluxDown,
             Estimate::FluxUp | Estimate::PilotFluxUp => Estimate::PilotFluxUp,
+            Estimate::GroundView | Estimate::PilotGroundView => Estimate::PilotGroundView,
             Estimate::AzimuthalAverage(_) | Estimate::MeanIntensityDown | Estimate::MeanIntensityUp => {
                 unreachable!("uvspec's estimates have no noise target")
             }
@@ -128,6 +135,8 @@ impl Estimate {
             Estimate::FluxUp => u64::MAX - 2,
             Estimate::MeanIntensityDown => u64::MAX - 3,
             Estimate::MeanIntensityUp => u64::MAX - 4,
+            Estimate::GroundView => u64::MAX - 7,
+            Estimate::PilotGroundView => u64::MAX - 8,
         }
     }
 }
@@ -201,6 +210,8 @@ mod tests {
             Estimate::Pilot(INDEX_LIMIT as usize - 1),
             Estimate::PilotFluxDown,
             Estimate::PilotFluxUp,
+            Estimate::GroundView,
+            Estimate::PilotGroundView,
         ]
         .iter()
         .map(|e| e.word())

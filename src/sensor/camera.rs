@@ -275,6 +275,23 @@ impl Camera {
         }
     }
 
+    /// The rows whose every direction lies below the horizon (elevation
+    /// ≤ 0): the lower half of an equirectangular image (rows j with
+    /// 2j ≥ height, whose top edge is at or below the horizon), every row
+    /// of a downward fisheye, none of an upward one. An observer standing
+    /// on the ground sees one radiance in all of them (`run::layout`).
+    pub fn rows_below_horizon(&self) -> std::ops::Range<usize> {
+        match *self {
+            Camera::Fisheye {
+                resolution, hemisphere, ..
+            } => match hemisphere {
+                Hemisphere::Down => 0..resolution,
+                Hemisphere::Up => resolution..resolution,
+            },
+            Camera::Panorama { height, .. } | Camera::Sphere { height, .. } => height.div_ceil(2)..height,
+        }
+    }
+
     /// The columns of row `j` whose pixels see part of the sky (all but
     /// those of a fisheye outside its circle): the pixels that are traced.
     pub fn active_columns(&self, j: usize) -> std::ops::Range<usize> {
@@ -709,6 +726,60 @@ mod tests {
                 }
             }
             assert!(checked > 70);
+        }
+    }
+
+    #[test]
+    fn rows_below_the_horizon_see_only_directions_below_it() {
+        // Every corner, edge midpoint and interior point of those rows'
+        // pixels looks at or below the horizon; each row above holds a
+        // point above it.
+        let cameras = [
+            Camera::Sphere { width: 8, height: 5 },
+            Camera::Sphere { width: 64, height: 32 },
+            Camera::Panorama { width: 9, height: 7 },
+            Camera::Panorama { width: 10, height: 2 },
+        ]
+        .into_iter()
+        .chain(fisheyes(7))
+        .chain(fisheyes(8))
+        .chain(fisheyes(7).into_iter().map(|c| match c {
+            Camera::Fisheye {
+                resolution, projection, ..
+            } => Camera::Fisheye {
+                resolution,
+                hemisphere: Hemisphere::Down,
+                projection,
+            },
+            other => other,
+        }));
+        for cam in cameras {
+            let (w, h) = cam.size();
+            let below = cam.rows_below_horizon();
+            for j in 0..h {
+                let mut highest = f64::NEG_INFINITY;
+                for i in 0..w {
+                    for (dx, dy) in [
+                        (0.0, 0.0),
+                        (0.5, 0.0),
+                        (1.0, 0.0),
+                        (0.0, 0.5),
+                        (0.5, 0.5),
+                        (0.5, 0.9),
+                        (1.0, 1.0),
+                        (0.3, 0.9),
+                    ] {
+                        if let Some(ray) = cam.ray_at(i as f64 + dx, j as f64 + dy) {
+                            highest = highest.max(ray.direction.z);
+                        }
+                    }
+                }
+                if below.contains(&j) {
+                    assert!(highest <= 1e-12, "{cam:?} row {j}: {highest}");
+                } else {
+                    assert!(highest > 0.0, "{cam:?} row {j}: {highest}");
+                }
+            }
         }
     }
 
