@@ -186,6 +186,22 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "render.shared_wavelengths",
             "band_width_nm",
         ),
+        (
+            "[render]\nspectral_groups = 0\n",
+            "render.spectral_groups",
+            "whole number of groups from 1",
+        ),
+        (
+            "[render]\nspectral_groups = \"two\"\n",
+            "render.spectral_groups",
+            "\"auto\"",
+        ),
+        // A type error: the reader shows the line, key and all.
+        (
+            "[render]\nspectral_groups = 1.5\n",
+            "spectral_groups = 1.5",
+            "whole number of groups",
+        ),
         // Absolute units need the Kurucz irradiance (250–10000 nm) over
         // every channel, band edges included.
         (

@@ -581,6 +581,7 @@ const SECTIONS: &[(&str, &[(&str, Kind)])] = &[
             ("sun_sampling", Word(SUN_SAMPLING)),
             ("first_vertex_splitting", Bool),
             ("shared_wavelengths", Bool),
+            ("spectral_groups", Int(0, 4)),
         ],
     ),
     (

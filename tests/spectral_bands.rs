@@ -397,3 +397,103 @@ fn band_sun_tables_average_the_direct_beam_over_the_band() {
         }
     }
 }
+
+#[test]
+fn spectral_groups_put_every_band_in_its_place() {
+    // Bands listed out of wavelength order, split into two groups by
+    // column extinction (each with paths of its own): every band's
+    // radiances and fluxes, and every band's image, equal those of one
+    // group of all the bands (independent seeds), and the groups are the
+    // most extinct bands first.
+    let base = "[atmosphere]\naerosol = \"continental_average\"\n[sun]\nelevation_deg = 15.0\n\
+                [spectrum]\nwavelengths_nm = [740.0, 340.0, 580.0, 420.0]\nband_width_nm = 40.0\n\
+                [ground]\nalbedo = [0.0, 0.3]\n";
+    let dirs = "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0, 120.0]\nazimuth_deg = [0.0, 90.0]\n";
+    let image = "[sensor]\ntype = \"sphere\"\nresolution = [8, 4]\n[observer]\naltitude_km = 2.0\n";
+    for (sensor, samples) in [(dirs, 6000), (image, 600)] {
+        let grouped = job(&format!(
+            "{base}{sensor}[render]\nsamples = {samples}\nseed = 3\nspectral_groups = 2\n"
+        ));
+        let one = job(&format!(
+            "{base}{sensor}[render]\nsamples = {samples}\nseed = 4\nspectral_groups = 1\n"
+        ));
+        let task = &grouped.tasks[0];
+        assert_eq!(grouped.spectral_groups(task), vec![vec![1, 3], vec![0, 2]]);
+        assert_eq!(one.spectral_groups(task), vec![vec![0, 1, 2, 3]]);
+        // "auto": two groups by day over bands whose column extinctions
+        // span more than 3 (here 0.93 at 340 nm to 0.11 at 740 nm), one
+        // with the sun set, or over a narrow span (0.38 to 0.25 from 450 to
+        // 550 nm).
+        let auto = |text: &str| {
+            let j = job(text);
+            j.spectral_groups(&j.tasks[0])
+        };
+        assert_eq!(auto(base), vec![vec![1, 3], vec![0, 2]]);
+        assert_eq!(
+            auto(&base.replace("elevation_deg = 15.0", "elevation_deg = -4.2")),
+            vec![vec![0, 1, 2, 3]]
+        );
+        assert_eq!(
+            auto(&base.replace("[740.0, 340.0, 580.0, 420.0]", "[450.0, 550.0]")),
+            vec![vec![0, 1]]
+        );
+        let run = |j: &atmosim::job::Job| atmosim::run::task::render_whole(j, &j.tasks[0], &|_| {}, &|_| {}).unwrap();
+        let ((gl, gs), (ol, os)) = (run(&grouped), run(&one));
+        assert_eq!(gl.groups.len(), 2);
+        let mut cmp = Comparison::default();
+        if sensor == dirs {
+            let g = atmosim::run::assemble::directions_result(&grouped, task, &gl, &gs);
+            let o = atmosim::run::assemble::directions_result(&one, task, &ol, &os);
+            assert_eq!(g.radiance.len(), 4 * 2 * 6);
+            for (a, b) in g.radiance.iter().zip(&o.radiance) {
+                assert_eq!((a.wavelength_nm, a.albedo), (b.wavelength_nm, b.albedo));
+                for s in 0..3 {
+                    cmp.add(
+                        || {
+                            format!(
+                                "{} nm albedo {} {:?} Stokes {s}",
+                                a.wavelength_nm, a.albedo, a.direction
+                            )
+                        },
+                        a.tally.mean()[s],
+                        a.tally.standard_error()[s],
+                        b.tally.mean()[s],
+                        b.tally.standard_error()[s],
+                    );
+                }
+            }
+            assert_eq!(g.fluxes.len(), 8);
+            for (a, b) in g.fluxes.iter().zip(&o.fluxes) {
+                assert_eq!((a.wavelength_nm, a.albedo), (b.wavelength_nm, b.albedo));
+                assert_eq!(a.fluxes.e_dir, b.fluxes.e_dir);
+                cmp.add(
+                    || format!("{} nm albedo {} e_down", a.wavelength_nm, a.albedo),
+                    a.fluxes.e_down,
+                    a.fluxes.e_down_se,
+                    b.fluxes.e_down,
+                    b.fluxes.e_down_se,
+                );
+            }
+        } else {
+            let atmosim::job::Sensor::Image(camera) = &grouped.render.sensor else {
+                unreachable!()
+            };
+            let g = atmosim::run::assemble::image_result(&grouped, camera, &gl, &gs);
+            let o = atmosim::run::assemble::image_result(&one, camera, &ol, &os);
+            assert_eq!(g.layers.len(), 8);
+            for (a, b) in g.layers.iter().zip(&o.layers) {
+                assert_eq!((a.wavelength_nm, a.albedo), (b.wavelength_nm, b.albedo));
+                for p in 0..32 {
+                    cmp.add(
+                        || format!("{} nm albedo {} pixel {p}", a.wavelength_nm, a.albedo),
+                        a.mean[0][p],
+                        a.se[0][p],
+                        b.mean[0][p],
+                        b.se[0][p],
+                    );
+                }
+            }
+        }
+        cmp.assert_no_outlier("two spectral groups against one");
+    }
+}

@@ -49,6 +49,34 @@ impl Settings {
     }
 }
 
+/// How the channels that share spectral paths are grouped (closed set):
+/// each group has paths of its own, its channels sharing them (hero
+/// wavelengths and the balance heuristic inside the group).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpectralGroups {
+    /// Two groups by column extinction while the sun is at or above
+    /// [`AUTO_GROUPS_MIN_ELEVATION_DEG`] and the channels' column
+    /// extinctions span at least [`AUTO_GROUPS_MIN_SPREAD`], else one
+    /// (where every channel gains from the others' paths):
+    /// `transport::scene_build` states the measurements.
+    Auto,
+    /// This many groups (1: every channel along the same paths).
+    Count(usize),
+}
+
+/// The lowest sun elevation (°) at which `spectral_groups = "auto"` makes
+/// two groups: between the sky model grid's −4.2° (one group is cheaper)
+/// and −3° (two are).
+pub const AUTO_GROUPS_MIN_ELEVATION_DEG: f64 = -3.5;
+
+/// The least ratio of the largest to the smallest column extinction of the
+/// channels at which `spectral_groups = "auto"` makes two groups: the
+/// sky model grid's bands span 5 (20 km visibility) to 12 (131.8 km) and
+/// gain from two; the quickstart's wavelengths span 2.2 and do not (13.8 M
+/// paths against 8.5 M for the same noise target, README "Spectral
+/// groups").
+pub const AUTO_GROUPS_MIN_SPREAD: f64 = 3.0;
+
 /// Where on a flight the sun is connected to (closed set).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SunSampling {

@@ -236,6 +236,15 @@ pub(super) struct RawRender {
     pub(super) sun_sampling: Option<RawSunSampling>,
     pub(super) first_vertex_splitting: Option<bool>,
     pub(super) shared_wavelengths: Option<bool>,
+    pub(super) spectral_groups: Option<RawSpectralGroups>,
+}
+
+/// `spectral_groups = "auto"` or a whole number of groups.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged, expecting = "\"auto\" or a whole number of groups")]
+pub(super) enum RawSpectralGroups {
+    Count(i64),
+    Name(String),
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

@@ -6,11 +6,11 @@ use std::path::PathBuf;
 use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
-    RawSensor, RawSensorKind, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
+    RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
-use crate::job::options::{MAX_ALBEDOS, Settings, SunSampling, SunTransmittance};
+use crate::job::options::{MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance};
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
@@ -88,6 +88,8 @@ pub struct RenderSpec {
     pub target: Option<NoiseTarget>,
     /// Render all wavelengths along shared paths where the media allow.
     pub shared_wavelengths: bool,
+    /// How the channels along shared paths are grouped.
+    pub spectral_groups: SpectralGroups,
     pub seed: u64,
     pub settings: Settings,
     pub medium: MediumModel,
@@ -246,6 +248,7 @@ pub(super) fn resolve(
         samples,
         target,
         shared_wavelengths: render.shared_wavelengths.unwrap_or(true),
+        spectral_groups: spectral_groups(ctx, render.spectral_groups.as_ref())?,
         seed: render.seed.unwrap_or(1),
         settings: Settings {
             polarized: render.polarized.unwrap_or(true),
@@ -503,4 +506,18 @@ fn resolve_camera(ctx: &Ctx, kind: RawSensorKind, sensor: &RawSensor) -> Result<
         RawSensorKind::Sphere => Camera::Sphere { width, height },
         RawSensorKind::Directions => unreachable!("handled by the caller"),
     })
+}
+
+/// `render.spectral_groups`: "auto" (the default) or a whole number ≥ 1.
+fn spectral_groups(ctx: &Ctx, raw: Option<&RawSpectralGroups>) -> Result<SpectralGroups> {
+    let valid = "\"auto\" or a whole number of groups from 1 (every channel along the same paths)";
+    match raw {
+        None => Ok(SpectralGroups::Auto),
+        Some(RawSpectralGroups::Name(name)) if name == "auto" => Ok(SpectralGroups::Auto),
+        Some(RawSpectralGroups::Name(name)) => {
+            Err(ctx.invalid("render.spectral_groups", format!("\"{name}\""), "not a grouping", valid))
+        }
+        Some(RawSpectralGroups::Count(n)) if *n >= 1 => Ok(SpectralGroups::Count(*n as usize)),
+        Some(RawSpectralGroups::Count(n)) => Err(ctx.invalid("render.spectral_groups", n, "out of range", valid)),
+    }
 }

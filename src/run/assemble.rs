@@ -24,30 +24,21 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     let mut radiance: Vec<Vec<Vec<Tally>>> = vec![vec![Vec::new(); na]; job.wavelengths_nm.len()];
     let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
     // A noise target's pilot only set the allocation: not a result.
+    let nw = job.wavelengths_nm.len();
     for (est, tallies) in layout.results(state) {
         match est.kind {
-            EstimateKind::Direction { channels, .. } => match channels {
-                Channels::Shared => {
-                    for (w, per_albedo) in radiance.iter_mut().enumerate() {
-                        for (a, list) in per_albedo.iter_mut().enumerate() {
-                            list.push(tallies[w * na + a]);
-                        }
-                    }
-                }
-                Channels::One(w) => {
+            EstimateKind::Direction { channels, .. } => {
+                for (k, w) in layout.channel_indices(channels, nw).into_iter().enumerate() {
                     for (a, list) in radiance[w].iter_mut().enumerate() {
-                        list.push(tallies[a]);
+                        list.push(tallies[k * na + a]);
                     }
                 }
-            },
-            EstimateKind::Flux { channels, up } => match channels {
-                Channels::Shared => {
-                    for (w, f) in flux.iter_mut().enumerate() {
-                        f[up as usize] = tallies[w * na..(w + 1) * na].to_vec();
-                    }
+            }
+            EstimateKind::Flux { channels, up } => {
+                for (k, w) in layout.channel_indices(channels, nw).into_iter().enumerate() {
+                    flux[w][up as usize] = tallies[k * na..(k + 1) * na].to_vec();
                 }
-                Channels::One(w) => flux[w][up as usize] = tallies.clone(),
-            },
+            }
             EstimateKind::Pixels { .. } | EstimateKind::GroundView { .. } => {}
         }
     }
@@ -87,42 +78,55 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     result
 }
 
+/// A noise target's samples per pixel: for one channel (its wavelength),
+/// or for all of them along shared paths (`None`).
+type SampleMap = (Option<f64>, Vec<u64>);
+
 /// A task's sums as an image: one layer per (wavelength, albedo).
 pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitState) -> SkyImage {
     let (width, height) = camera.size();
     let spec = &job.render;
     let na = spec.albedos.len();
-    let mut layers = Vec::new();
-    let mut samples = Vec::new();
+    // Layers and sample maps keyed by channel index, so that they come in
+    // the job's channel order whatever the channel sets.
+    let mut layers: Vec<(usize, ImageLayer)> = Vec::new();
+    let mut samples: Vec<(usize, SampleMap)> = Vec::new();
     for (channels, per_value, non_finite) in pixel_tallies(camera, layout, state) {
-        let wavelengths: Vec<usize> = match channels {
-            Channels::Shared => (0..job.wavelengths_nm.len()).collect(),
-            Channels::One(w) => vec![w],
-        };
+        let wavelengths = layout.channel_indices(channels, job.wavelengths_nm.len());
         if layout.target.is_some() {
-            // A noise target's samples per pixel, one map per estimate.
-            let wavelength = match channels {
-                Channels::Shared => None,
-                Channels::One(w) => Some(job.wavelengths_nm[w]),
-            };
-            samples.push((wavelength, per_value[0].iter().map(|t| t.samples).collect()));
+            // A noise target's samples per pixel: one map for all the
+            // channels along shared paths, else one per channel (each
+            // channel of a spectral group has its group's).
+            let map: Vec<u64> = per_value[0].iter().map(|t| t.samples).collect();
+            match channels {
+                Channels::Shared => samples.push((0, (None, map))),
+                _ => samples.extend(
+                    wavelengths
+                        .iter()
+                        .map(|&w| (w, (Some(job.wavelengths_nm[w]), map.clone()))),
+                ),
+            }
         }
         for (k, &w) in wavelengths.iter().enumerate() {
             for (a, &albedo) in spec.albedos.iter().enumerate() {
-                layers.push(ImageLayer::from_tallies(
+                let layer = ImageLayer::from_tallies(
                     job.wavelengths_nm[w],
                     albedo,
                     &per_value[k * na + a],
                     if k == 0 && a == 0 { non_finite } else { 0 },
-                ));
+                );
+                layers.push((w, layer));
             }
         }
     }
+    // Stable: a channel's albedos keep their order.
+    layers.sort_by_key(|(w, _)| *w);
+    samples.sort_by_key(|(w, _)| *w);
     SkyImage {
         width,
         height,
-        layers,
-        samples,
+        layers: layers.into_iter().map(|(_, l)| l).collect(),
+        samples: samples.into_iter().map(|(_, s)| s).collect(),
     }
 }
 
@@ -168,21 +172,19 @@ pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, No
     let nw = job.wavelengths_nm.len();
     // Per (wavelength, albedo), the tallies of its pixels or directions.
     let mut per_value: Vec<Vec<Tally>> = vec![Vec::new(); nw * na];
-    let first = |channels: Channels| match channels {
-        Channels::Shared => 0,
-        Channels::One(w) => w,
-    };
+    // Value v of an estimate is albedo v % na of its channel v / na.
+    let slot = |channels: Channels, v: usize| layout.channel_indices(channels, nw)[v / na] * na + v % na;
     for (est, tallies) in layout.results(state) {
         if let EstimateKind::Direction { channels, .. } = est.kind {
             for (v, t) in tallies.iter().enumerate() {
-                per_value[first(channels) * na + v].push(*t);
+                per_value[slot(channels, v)].push(*t);
             }
         }
     }
     if let Sensor::Image(camera) = &job.render.sensor {
         for (channels, values, _) in pixel_tallies(camera, layout, state) {
             for (v, list) in values.into_iter().enumerate() {
-                per_value[first(channels) * na + v] = list;
+                per_value[slot(channels, v)] = list;
             }
         }
     }

@@ -86,6 +86,10 @@ pub struct Layout {
     pub traced_rows: usize,
     /// True when the wavelengths share their paths.
     pub shared: bool,
+    /// The spectral groups of shared paths (channel indices; one group of
+    /// all the channels when they are not split; empty without shared
+    /// paths).
+    pub groups: Vec<Vec<usize>>,
     /// Paths of the first wave (a wave: blocks of one direction, or the
     /// same number of samples for every pixel); checkpoints and stop
     /// requests are honoured between waves.
@@ -112,33 +116,46 @@ impl Layout {
         let seed = spec.seed;
         let mut estimates = Vec::new();
         let (mut pixels, mut active, mut traced_rows) = (0, None, 0);
+        // The channel sets with paths of their own: every channel alone,
+        // all of them along shared paths, or each spectral group.
+        let groups = if shared { job.spectral_groups(task) } else { Vec::new() };
+        let shared_sets: Vec<Channels> = match groups.len() {
+            0 => Vec::new(),
+            1 => vec![Channels::Shared],
+            g => (0..g).map(Channels::Group).collect(),
+        };
+        let values_of = |channels: Channels| match channels {
+            Channels::Shared => nw * na,
+            Channels::One(_) => na,
+            Channels::Group(g) => groups[g].len() * na,
+        };
+        let render_of = |channels: Channels| Render::Task {
+            task: task.index,
+            channels,
+        };
         match &spec.sensor {
             Sensor::Directions(directions) => {
-                if shared {
+                for &channels in &shared_sets {
                     for d in 0..directions.len() {
                         estimates.push(Estimate {
-                            kind: EstimateKind::Direction {
-                                channels: Channels::Shared,
-                                direction: d,
-                            },
-                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::Direction(d)),
-                            values: nw * na,
+                            kind: EstimateKind::Direction { channels, direction: d },
+                            key: StreamKey::new(seed, render_of(channels), stream::Estimate::Direction(d)),
+                            values: values_of(channels),
                             stage: Stage::Fixed,
                         });
                     }
                 }
                 let shared_fluxes = shared && job.banded();
                 if spec.fluxes && shared_fluxes {
-                    for up in [false, true] {
-                        estimates.push(Estimate {
-                            kind: EstimateKind::Flux {
-                                channels: Channels::Shared,
-                                up,
-                            },
-                            key: StreamKey::new(seed, Render::shared(task.index), stream::Estimate::flux(up)),
-                            values: nw * na,
-                            stage: Stage::Fixed,
-                        });
+                    for &channels in &shared_sets {
+                        for up in [false, true] {
+                            estimates.push(Estimate {
+                                kind: EstimateKind::Flux { channels, up },
+                                key: StreamKey::new(seed, render_of(channels), stream::Estimate::flux(up)),
+                                values: values_of(channels),
+                                stage: Stage::Fixed,
+                            });
+                        }
                     }
                 }
                 for w in 0..nw {
@@ -180,19 +197,13 @@ impl Layout {
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
                 let channel_sets: Vec<Channels> = if shared {
-                    vec![Channels::Shared]
+                    shared_sets.clone()
                 } else {
                     (0..nw).map(Channels::One).collect()
                 };
                 for channels in channel_sets {
-                    let render = Render::Task {
-                        task: task.index,
-                        channels,
-                    };
-                    let values = match channels {
-                        Channels::Shared => nw * na,
-                        Channels::One(_) => na,
-                    };
+                    let render = render_of(channels);
+                    let values = values_of(channels);
                     // Each pixel draws from its own stream (`Estimate::Pixel`
                     // with its index, in `film::image`); the key holds the
                     // render they share.
@@ -245,6 +256,7 @@ impl Layout {
             active,
             traced_rows,
             shared,
+            groups,
             wave_paths: 1 << 15,
             adaptive_waves: true,
             target: spec.target,
@@ -377,6 +389,16 @@ impl Layout {
         }
     }
 
+    /// The job's channel indices an estimate of `channels` holds, in the
+    /// order of its values.
+    pub fn channel_indices(&self, channels: Channels, nw: usize) -> Vec<usize> {
+        match channels {
+            Channels::Shared => (0..nw).collect(),
+            Channels::One(w) => vec![w],
+            Channels::Group(g) => self.groups[g].clone(),
+        }
+    }
+
     /// Paths a shard traces along shared spectral paths (every channel at
     /// once) and at single wavelengths, in that order: the two cost
     /// differently per path (`plan`).
@@ -385,7 +407,7 @@ impl Layout {
         for (e, estimate) in self.estimates.iter().enumerate() {
             let n = self.paths_of(e, &self.range(e, shard));
             match estimate.kind.channels() {
-                Channels::Shared => paths.0 += n,
+                Channels::Shared | Channels::Group(_) => paths.0 += n,
                 Channels::One(_) => paths.1 += n,
             }
         }

@@ -50,7 +50,7 @@ fn paths_by_channels(job: &Job, task: &Task, rates: &Rates) -> (u64, u64) {
             _ => layout.paths_of(e, &layout.range(e, Shard::WHOLE)),
         };
         match estimate.kind.channels() {
-            Channels::Shared => paths.0 += n,
+            Channels::Shared | Channels::Group(_) => paths.0 += n,
             Channels::One(_) => paths.1 += n,
         }
     }

@@ -77,15 +77,18 @@ struct Scenes<'a> {
     task: &'a Task,
     shared: Option<Scene>,
     single: Vec<Option<Scene>>,
+    groups: Vec<Option<Scene>>,
 }
 
 impl Scenes<'_> {
-    /// The scene of an estimate's channels: all of them, or one alone.
-    fn of(&mut self, channels: Channels) -> &Scene {
+    /// The scene of an estimate's channels: all of them, a spectral group
+    /// (`layout.groups`), or one alone.
+    fn of(&mut self, channels: Channels, layout: &Layout) -> &Scene {
         let (job, task) = (self.job, self.task);
         match channels {
             Channels::Shared => self.shared.as_ref().expect("a shared layout has a shared scene"),
             Channels::One(w) => self.single[w].get_or_insert_with(|| job.scene_for(task, w)),
+            Channels::Group(g) => self.groups[g].get_or_insert_with(|| job.group_scene(task, &layout.groups[g])),
         }
     }
 }
@@ -130,6 +133,7 @@ pub fn run(
         task,
         shared,
         single: (0..job.wavelengths_nm.len()).map(|_| None).collect(),
+        groups: layout.groups.iter().map(|_| None).collect(),
     };
     let mut last_checkpoint = Instant::now();
     let mut wave_paths = layout.wave_paths;
@@ -174,7 +178,7 @@ pub fn run(
             };
             let clock = Instant::now();
             let tallies = &mut state.tallies[e];
-            let scene = scenes.of(est.kind.channels());
+            let scene = scenes.of(est.kind.channels(), layout);
             match est.kind {
                 EstimateKind::Direction { .. } | EstimateKind::Pixels { .. } | EstimateKind::GroundView { .. } => {
                     radiance_wave(scene, &context, e, work.clone(), tallies)
@@ -310,6 +314,9 @@ mod tests {
                 "shared_wavelengths = false\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [30.0]\nazimuth_deg = [180.0]\n",
                 "[sensor]\ntype = \"fisheye\"\nresolution = 6\n",
                 "shared_wavelengths = false\n[sensor]\ntype = \"fisheye\"\nresolution = 5\n",
+                // Two spectral groups, each with paths of its own.
+                "spectral_groups = 2\n[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
+                "spectral_groups = 2\n[sensor]\ntype = \"fisheye\"\nresolution = 5\n",
                 // From the ground: the lower rows share the ground view.
                 "[sensor]\ntype = \"sphere\"\nresolution = [6, 4]\n[ground]\nalbedo = [0.0, 0.3]\n",
                 "shared_wavelengths = false\n[sensor]\ntype = \"fisheye\"\nresolution = 4\nhemisphere = \"down\"\n\
@@ -362,6 +369,7 @@ mod tests {
                 "[sensor]\ntype = \"directions\"\nview_zenith_deg = [0.0, 60.0]\nazimuth_deg = [0.0]\n",
                 "[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
                 "[sensor]\ntype = \"sphere\"\nresolution = [6, 4]\n[ground]\nalbedo = 0.3\n",
+                "spectral_groups = 2\n[sensor]\ntype = \"fisheye\"\nresolution = 4\n",
             ]
             .map(move |e| (s, e))
         }) {

@@ -6,9 +6,11 @@
 //! and the renders of one job, never share a stream:
 //! - `render`: `task · 2³² + channel` for one channel (wavelength or band)
 //!   of a task, `task · 2³² + 0xFFFF` for all of a task's channels along
-//!   shared paths (a job has fewer than 0xFFFF channels), `u64::MAX` for the
-//!   calibration renders of `atmosim plan`; a transmittance table's words are
-//!   its task and its table point.
+//!   shared paths (a job has fewer than 0xFFFF channels), `task · 2³² +
+//!   2¹⁶ + g` for group g of its channels along paths of their own
+//!   (`render.spectral_groups`), `u64::MAX` for the calibration renders of
+//!   `atmosim plan`; a transmittance table's words are its task and its
+//!   table point.
 //! - `estimate`: a direction's or a pixel's index (below 2⁴⁰), `2⁴⁰ + k` for
 //!   uvspec's azimuthal average of its k-th `umu`, `2⁴¹ + d` for the pilot
 //!   of a noise target at direction or pixel `d`, and the top values of u64
@@ -25,6 +27,9 @@ use crate::sampling::sampler::Sampler;
 pub enum Channels {
     One(usize),
     Shared,
+    /// Group g of the task's channels (its spectral groups, in their
+    /// order), along paths of their own.
+    Group(usize),
 }
 
 /// The render an estimate belongs to: the key's second word.
@@ -70,6 +75,8 @@ pub enum Estimate {
 
 /// The channel word of shared paths.
 const SHARED_CHANNEL: u64 = 0xFFFF;
+/// The channel word of spectral group 0 (group g: this + g).
+const FIRST_GROUP: u64 = 0x1_0000;
 /// Indices of directions and pixels stay below this.
 const INDEX_LIMIT: u64 = 1 << 40;
 
@@ -96,6 +103,7 @@ impl Render {
                 let channel = match channels {
                     Channels::One(w) => w as u64,
                     Channels::Shared => SHARED_CHANNEL,
+                    Channels::Group(g) => FIRST_GROUP + g as u64,
                 };
                 ((task as u64) << 32) | channel
             }
@@ -187,6 +195,11 @@ mod tests {
         let k = StreamKey::new(7, Render::channel(3, 2), Estimate::Direction(5));
         assert_eq!(k.words(), [7, (3 << 32) | 2, 5]);
         assert_eq!(Render::shared(1).word(), (1 << 32) | 0xFFFF);
+        let group = Render::Task {
+            task: 1,
+            channels: Channels::Group(2),
+        };
+        assert_eq!(group.word(), (1 << 32) | 0x1_0002);
         assert_eq!(Render::Calibration.word(), u64::MAX);
         assert_eq!(Estimate::FluxDown.word(), u64::MAX - 1);
         assert_eq!(Estimate::FluxUp.word(), u64::MAX - 2);
