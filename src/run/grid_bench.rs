@@ -8,11 +8,13 @@
 //!
 //! Every task renders to a noise target (`render.noise_target`) far above
 //! the real one, [`BENCH_TARGET`] (its pilot allocates the samples per
-//! pixel), so that the subset fits in minutes. Per task it reports the
+//! pixel), so that the subset fits in minutes, with the job's defaults
+//! otherwise (spectral groups, the ground view). Per task it reports the
 //! core-seconds (wall time × the pool's threads) of the pilot and of the
-//! allocated samples, the mean samples per pixel, and per band the median
-//! and 99th percentile over the pixels of the relative standard error of I
-//! (the worst over the albedos above 0). Scaled to the noise target
+//! allocated samples, the mean paths per traced pixel (over every spectral
+//! group), and per band the median and 99th percentile over the traced
+//! pixels (not those that share the ground view) of the relative standard
+//! error of I (the worst over the albedos above 0). Scaled to the noise target
 //! (median ≤ 0.5 %, 99th percentile ≤ 2 % in every band and albedo above
 //! 0) and to 1024×512:
 //!
@@ -166,7 +168,7 @@ pub fn run(quick: bool, out: &mut dyn Write) -> Result<(f64, f64)> {
             .collect();
         writeln!(
             out,
-            "{}: {core_seconds:.1} core-s ({:.0} % pilot), {:.0} spp mean; median/p99 by band {}; to target \
+            "{}: {core_seconds:.1} core-s ({:.0} % pilot), {:.0} paths per pixel; median/p99 by band {}; to target \
              x{factor:.0} samples: {h:.1} core-hours at 1024x512",
             task.name,
             100.0 * pilot_share,

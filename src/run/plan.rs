@@ -156,7 +156,8 @@ pub fn calibrate(job: &Job) -> Calibration {
 
 /// Paths per second on one core for `task`, from about 0.2 s of rendering
 /// over directions spread on the sphere: at its middle wavelength, and
-/// along shared paths if its wavelengths share them.
+/// along shared paths if its wavelengths share them (those of each of its
+/// spectral groups, in equal numbers).
 fn calibrate_task(job: &Job, task: &Task) -> Rates {
     let scene = job.scene_for(task, job.wavelengths_nm.len() / 2);
     let directions: Vec<Direction> = (0..16)
@@ -187,10 +188,19 @@ fn calibrate_task(job: &Job, task: &Task) -> Rates {
         single: rate(&|n| {
             render_directions(&scene, alt, &directions, n, seed, Render::Calibration);
         }),
+        // Each spectral group's paths carry its channels alone: the rate is
+        // over equal numbers of paths of every group.
         shared: job.spectral_scene(task).map(|shared| {
+            let groups = job.spectral_groups(task);
+            let scenes: Vec<_> = match groups.len() {
+                1 => vec![shared],
+                _ => groups.iter().map(|g| job.group_scene(task, g)).collect(),
+            };
             rate(&|n| {
-                render_directions_all(&shared, alt, &directions, n, seed, Render::Calibration);
-            })
+                for scene in &scenes {
+                    render_directions_all(scene, alt, &directions, n, seed, Render::Calibration);
+                }
+            }) * scenes.len() as f64
         }),
         samples: job.render.target.map(|_| pilot_allocation(job, task)),
     }
