@@ -24,18 +24,17 @@ pub fn directions_result(job: &Job, task: &Task, layout: &Layout, state: &UnitSt
     let mut radiance: Vec<Vec<Vec<Tally>>> = vec![vec![Vec::new(); na]; job.wavelengths_nm.len()];
     let mut flux: Vec<[Vec<Tally>; 2]> = vec![Default::default(); job.wavelengths_nm.len()];
     // A noise target's pilot only set the allocation: not a result.
-    let nw = job.wavelengths_nm.len();
     for (est, tallies) in layout.results(state) {
         match est.kind {
             EstimateKind::Direction { channels, .. } => {
-                for (k, w) in layout.channel_indices(channels, nw).into_iter().enumerate() {
+                for (k, w) in layout.channel_indices(channels).into_iter().enumerate() {
                     for (a, list) in radiance[w].iter_mut().enumerate() {
                         list.push(tallies[k * na + a]);
                     }
                 }
             }
             EstimateKind::Flux { channels, up } => {
-                for (k, w) in layout.channel_indices(channels, nw).into_iter().enumerate() {
+                for (k, w) in layout.channel_indices(channels).into_iter().enumerate() {
                     flux[w][up as usize] = tallies[k * na..(k + 1) * na].to_vec();
                 }
             }
@@ -92,7 +91,7 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
     let mut layers: Vec<(usize, ImageLayer)> = Vec::new();
     let mut samples: Vec<(usize, SampleMap)> = Vec::new();
     for (channels, per_value, non_finite) in pixel_tallies(camera, layout, state) {
-        let wavelengths = layout.channel_indices(channels, job.wavelengths_nm.len());
+        let wavelengths = layout.channel_indices(channels);
         if layout.target.is_some() {
             // A noise target's samples per pixel: one map for all the
             // channels along shared paths, else one per channel (each
@@ -173,18 +172,20 @@ pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, No
     // Per (wavelength, albedo), the tallies of its pixels or directions.
     let mut per_value: Vec<Vec<Tally>> = vec![Vec::new(); nw * na];
     // Value v of an estimate is albedo v % na of its channel v / na.
-    let slot = |channels: Channels, v: usize| layout.channel_indices(channels, nw)[v / na] * na + v % na;
+    let slot = |indices: &[usize], v: usize| indices[v / na] * na + v % na;
     for (est, tallies) in layout.results(state) {
         if let EstimateKind::Direction { channels, .. } = est.kind {
+            let indices = layout.channel_indices(channels);
             for (v, t) in tallies.iter().enumerate() {
-                per_value[slot(channels, v)].push(*t);
+                per_value[slot(&indices, v)].push(*t);
             }
         }
     }
     if let Sensor::Image(camera) = &job.render.sensor {
         for (channels, values, _) in pixel_tallies(camera, layout, state) {
+            let indices = layout.channel_indices(channels);
             for (v, list) in values.into_iter().enumerate() {
-                per_value[slot(channels, v)] = list;
+                per_value[slot(&indices, v)] = list;
             }
         }
     }

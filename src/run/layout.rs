@@ -196,10 +196,9 @@ impl Layout {
                 let traced = ActivePixels::new(camera, traced_rows);
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
-                let channel_sets: Vec<Channels> = if shared {
-                    shared_sets.clone()
-                } else {
-                    (0..nw).map(Channels::One).collect()
+                let channel_sets: Vec<Channels> = match shared {
+                    true => shared_sets,
+                    false => (0..nw).map(Channels::One).collect(),
                 };
                 for channels in channel_sets {
                     let render = render_of(channels);
@@ -390,11 +389,11 @@ impl Layout {
     }
 
     /// The job's channel indices an estimate of `channels` holds, in the
-    /// order of its values.
-    pub fn channel_indices(&self, channels: Channels, nw: usize) -> Vec<usize> {
+    /// order of its values (shared paths have one group, of every channel).
+    pub fn channel_indices(&self, channels: Channels) -> Vec<usize> {
         match channels {
-            Channels::Shared => (0..nw).collect(),
             Channels::One(w) => vec![w],
+            Channels::Shared => self.groups[0].clone(),
             Channels::Group(g) => self.groups[g].clone(),
         }
     }
