@@ -507,6 +507,7 @@ const STOKES_FRAMES: &[&str] = &["meridian", "sun_view", "camera"];
 const MEDIA: &[&str] = &["layered", "smooth", "voxel"];
 const SUN_TRANSMITTANCE: &[&str] = &["analytic", "ratio_tracking", "delta"];
 const SUN_SAMPLING: &[&str] = &["auto", "sun_aware", "collision", "never"];
+const TRACKING_LAYERS: &[&str] = &["auto", "profile", "merged", "fine"];
 const UNITS: &[&str] = &["normalized", "absolute", "photons"];
 const DIRECTORIES: &[&str] = &["out", "o/p", "", "."];
 const ESTIMATORS: &[&str] = &["ratio_tracking", "residual_ratio_tracking", "analytic", "delta"];
@@ -575,6 +576,7 @@ const SECTIONS: &[(&str, &[(&str, Kind)])] = &[
             ("max_scattering_order", Int(0, 10)),
             ("medium", Word(MEDIA)),
             ("sun_transmittance", Word(SUN_TRANSMITTANCE)),
+            ("tracking_layers", Word(TRACKING_LAYERS)),
             ("majorant_scale", Num(1.0, 4.0)),
             ("forced_collisions", Bool),
             ("sun_samples_per_flight", Int(0, 4)),

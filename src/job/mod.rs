@@ -15,6 +15,7 @@ use crate::atmosphere::{Atmosphere, check_wavelengths};
 use crate::error::{Error, Result};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
+use crate::job::options::TrackingLayers;
 use crate::job::spectrum::Channel;
 use crate::job::transmittance::TransmittanceSpec;
 use crate::physics::aerosol::AerosolPhase;
@@ -424,6 +425,14 @@ impl Job {
             }
         }
         let render = render::resolve(&ctx, raw.sun, raw.ground, raw.sensor, raw.render, raw.output)?;
+        if render.settings.tracking_layers == TrackingLayers::Merged && geometry != GeometryKind::Spherical {
+            return Err(ctx.invalid(
+                "render.tracking_layers",
+                "merged",
+                "merged layers are tracked through spherical shells only",
+                "\"auto\" or \"profile\" with planet.geometry other than \"spherical\"",
+            ));
+        }
         let mut tasks = Vec::with_capacity(atmospheres.len() * render.sun_zeniths_deg.len() * altitudes.len());
         for (v, atmosphere) in &atmospheres {
             for &z in &render.sun_zeniths_deg {

@@ -17,6 +17,21 @@ pub enum SunTransmittance {
     RatioTracking,
 }
 
+/// Which layers paths are tracked through (closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackingLayers {
+    /// Merged where the profile is fine (a layered, spherical atmosphere
+    /// of more than [`AUTO_MIN_LAYERS`](crate::transport::tracer::AUTO_MIN_LAYERS)
+    /// layers with analytic shadow rays), else the profile's own: resolved
+    /// when a scene is made.
+    Auto,
+    /// The profile's own layers: every optical depth in closed form.
+    Profile,
+    /// Runs of similar layers merged, what they leave out ratio-tracked
+    /// (`transport::tracer::tracking`).
+    Merged,
+}
+
 /// Settings of the transport.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -25,6 +40,7 @@ pub struct Settings {
     /// unlimited.
     pub max_scattering_order: u32,
     pub sun_transmittance: SunTransmittance,
+    pub tracking_layers: TrackingLayers,
     /// Force a collision on flights that would otherwise leave the
     /// atmosphere or die on a black ground (piecewise-constant media).
     pub forced_collisions: bool,

@@ -230,6 +230,7 @@ pub(super) struct RawRender {
     pub(super) max_scattering_order: Option<u32>,
     pub(super) medium: Option<RawMedium>,
     pub(super) sun_transmittance: Option<RawSunTransmittance>,
+    pub(super) tracking_layers: Option<RawTrackingLayers>,
     pub(super) majorant_scale: Option<f64>,
     pub(super) forced_collisions: Option<bool>,
     pub(super) sun_samples_per_flight: Option<u32>,
@@ -245,6 +246,14 @@ pub(super) struct RawRender {
 pub(super) enum RawSpectralGroups {
     Count(i64),
     Name(String),
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawTrackingLayers {
+    Auto,
+    Profile,
+    Merged,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

@@ -6,11 +6,12 @@ use std::path::PathBuf;
 use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
-    RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance, RawUnits,
+    RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance,
+    RawTrackingLayers, RawUnits,
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
-use crate::job::options::{MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance};
+use crate::job::options::{MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance, TrackingLayers};
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
@@ -232,6 +233,30 @@ pub(super) fn resolve(
         0 => return Err(ctx.invalid("render.sun_samples_per_flight", 0, "no sun connections", "1 or more")),
         k => k,
     };
+    let sun_transmittance = match render.sun_transmittance.unwrap_or(RawSunTransmittance::Analytic) {
+        RawSunTransmittance::Analytic => SunTransmittance::Analytic,
+        RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
+    };
+    let tracking_layers = match render.tracking_layers.unwrap_or(RawTrackingLayers::Auto) {
+        RawTrackingLayers::Auto => TrackingLayers::Auto,
+        RawTrackingLayers::Profile => TrackingLayers::Profile,
+        RawTrackingLayers::Merged => TrackingLayers::Merged,
+    };
+    if tracking_layers == TrackingLayers::Merged {
+        let smooth = matches!(render.medium, Some(RawMedium::Smooth));
+        if smooth || sun_transmittance == SunTransmittance::RatioTracking {
+            return Err(ctx.invalid(
+                "render.tracking_layers",
+                "merged",
+                if smooth {
+                    "merging needs the layered medium, and medium = \"smooth\""
+                } else {
+                    "merged layers need analytic shadow rays, and sun_transmittance = \"ratio_tracking\""
+                },
+                "\"auto\" or \"profile\" here (\"merged\" with medium = \"layered\" and sun_transmittance = \"analytic\")",
+            ));
+        }
+    }
     let output = output.unwrap_or_default();
     let exposure = match output.exposure {
         None => None,
@@ -253,10 +278,8 @@ pub(super) fn resolve(
         settings: Settings {
             polarized: render.polarized.unwrap_or(true),
             max_scattering_order: render.max_scattering_order.unwrap_or(0),
-            sun_transmittance: match render.sun_transmittance.unwrap_or(RawSunTransmittance::Analytic) {
-                RawSunTransmittance::Analytic => SunTransmittance::Analytic,
-                RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
-            },
+            sun_transmittance,
+            tracking_layers,
             forced_collisions: render.forced_collisions.unwrap_or(true),
             sun_samples_per_flight,
             sun_sampling: match render.sun_sampling.unwrap_or(RawSunSampling::Auto) {

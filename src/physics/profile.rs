@@ -122,6 +122,47 @@ impl GasProfile {
         }
     }
 
+    /// The profile on levels every `step_km` from its ground up to
+    /// `top_km` (a level there too), each interpolated with the layer rules
+    /// like [`GasProfile::truncated`]: the same atmosphere, finely layered,
+    /// as a radiosonde or model profile is (the fine-profile benchmark and
+    /// tests). `step_km` must be positive and `top_km` inside the profile.
+    pub fn resampled(&self, step_km: f64, top_km: f64) -> GasProfile {
+        let ground = self.ground_km();
+        let count = ((top_km - ground) / step_km).ceil() as usize;
+        let mut levels = Vec::with_capacity(count + 1);
+        let mut i = 0;
+        for k in 0..=count {
+            let z = (ground + k as f64 * step_km).min(top_km);
+            while i + 2 < self.levels.len() && self.levels[i + 1].z_km <= z {
+                i += 1;
+            }
+            levels.push(interpolate_level(&self.levels[i], &self.levels[i + 1], z));
+        }
+        levels.dedup_by(|b, a| b.z_km <= a.z_km);
+        GasProfile {
+            name: format!("{} every {step_km} km", self.name),
+            levels,
+        }
+    }
+
+    /// The profile in the AFGL format [`GasProfile::parse`] reads (and
+    /// `atmosphere.profile_file`), highest level first as libRadtran
+    /// writes it.
+    pub fn to_afgl_text(&self) -> String {
+        let mut text = format!(
+            "# {}\n# z_km p_hPa T_K n_air_cm-3 n_o3_cm-3 n_o2_cm-3 n_h2o_cm-3 n_co2_cm-3 n_no2_cm-3\n",
+            self.name
+        );
+        for l in self.levels.iter().rev() {
+            text += &format!(
+                "{:.6} {:.9e} {:.6} {:.9e} {:.9e} {:.9e} {:.9e} {:.9e} {:.9e}\n",
+                l.z_km, l.pressure_hpa, l.temperature_k, l.n_air, l.n_o3, l.n_o2, l.n_h2o, l.n_co2, l.n_no2
+            );
+        }
+        text
+    }
+
     /// CO₂ volume mixing ratio at the ground, the value libRadtran's
     /// Rayleigh cross section uses for the whole column.
     pub fn surface_co2_ratio(&self) -> f64 {
@@ -236,6 +277,29 @@ mod tests {
 
     fn us() -> GasProfile {
         GasProfile::builtin("us_standard").unwrap().unwrap()
+    }
+
+    #[test]
+    fn a_resampled_profile_keeps_the_levels_it_passes_and_its_columns() {
+        // Every 100 m to 100 km: 1001 levels; the AFGL levels it meets are
+        // kept exactly, the air column (exact for log-linear air) to 1e-9,
+        // and the text it writes reads back.
+        let p = us();
+        let fine = p.resampled(0.1, 100.0);
+        assert_eq!(fine.levels.len(), 1001);
+        assert_eq!(fine.top_km(), 100.0);
+        let at = |q: &GasProfile, z: f64| *q.levels.iter().find(|l| (l.z_km - z).abs() < 1e-9).unwrap();
+        for z in [0.0, 1.0, 25.0, 50.0, 100.0] {
+            let (a, b) = (at(&p, z), at(&fine, z));
+            assert!((a.n_air - b.n_air).abs() <= 1e-12 * a.n_air, "{z} km");
+            assert!((a.n_o3 - b.n_o3).abs() <= 1e-12 * a.n_o3, "{z} km");
+        }
+        let column = |q: &GasProfile| (0..q.layer_count()).map(|i| q.air_column_cm2(i)).sum::<f64>();
+        let coarse = p.truncated(100.0);
+        assert!((column(&fine) / column(&coarse) - 1.0).abs() < 1e-9);
+        let back = GasProfile::parse("fine", &fine.to_afgl_text()).unwrap();
+        assert_eq!(back.levels.len(), 1001);
+        assert!((column(&back) / column(&fine) - 1.0).abs() < 1e-8);
     }
 
     #[test]

@@ -265,6 +265,7 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
         efficiency(2)
     )
     .map_err(io)?;
+    fine_profile_ratios(samples, (t_one, &split), out)?;
     let (t_serial, _) =
         serial.install(|| timed(|| render_directions(&scene, alt, dirs, samples, seed, Render::channel(0, 0))));
     writeln!(
@@ -273,6 +274,70 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
         t_serial / t_one
     )
     .map_err(io)?;
+    Ok(())
+}
+
+/// The reference case over a fine profile: US standard every 100 m to the
+/// top (1000 layers, from `GasProfile::resampled`, in a temporary file),
+/// tracked through its own layers and through merged ones (`render.
+/// tracking_layers`), each against the 45-level profile (`t_one`, `split`:
+/// its time and tallies at the same path count).
+fn fine_profile_ratios(samples: u64, (t_one, coarse): (f64, &[Tally]), out: &mut dyn Write) -> Result<()> {
+    let profile = crate::physics::profile::GasProfile::builtin("us_standard")
+        .expect("a built-in profile")?
+        .resampled(0.1, 100.0);
+    let dir = std::env::temp_dir().join(format!("atmosim-bench-{}", std::process::id()));
+    let file = dir.join("us_standard_100m.dat");
+    std::fs::create_dir_all(&dir).map_err(|e| crate::error::Error::io(&dir, e))?;
+    let written = std::fs::write(&file, profile.to_afgl_text()).map_err(|e| crate::error::Error::io(&file, e));
+    let jobs = written.and_then(|()| {
+        let text = REFERENCE_JOB.replace(
+            "profile = \"us_standard\"",
+            &format!("profile_file = {:?}", file.display().to_string()),
+        );
+        let job = |layers: &str| {
+            let text = text.replace(
+                "polarized = true",
+                &format!("polarized = true\ntracking_layers = \"{layers}\""),
+            );
+            Job::parse(&text, "throughput_reference.toml", Path::new("."))
+        };
+        Ok((job("profile")?, job("merged")?))
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    let (own, merged) = jobs?;
+    let (dirs, alt) = (own.render.directions(), own.observer_altitude_km);
+    let variance_ratio = |a: &[Tally], s: usize| {
+        a.iter()
+            .zip(coarse)
+            .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
+            .sum::<f64>()
+            / a.len() as f64
+    };
+    let coarse_layers = Job::parse(REFERENCE_JOB, "throughput_reference.toml", Path::new("."))?
+        .scene(0)
+        .levels_km()
+        .len()
+        - 1;
+    for job in [&own, &merged] {
+        let scene = job.scene(0);
+        let what = match scene.tracked_layers() {
+            n if n == profile.layer_count() => "its own layers".to_string(),
+            n => format!("{n} merged layers"),
+        };
+        let (t, tallies) = timed(|| render_directions(&scene, alt, dirs, samples, 1, Render::channel(0, 0)));
+        writeln!(
+            out,
+            "fine profile (US standard every 100 m, {} layers) through {what}: {t:.3} s, cost ratio {:.3} to the {}-layer profile; time × variance against it (mean over directions) I {:.2}, Q {:.2}, U {:.2}",
+            profile.layer_count(),
+            t / t_one,
+            coarse_layers,
+            t / t_one * variance_ratio(&tallies, 0),
+            t / t_one * variance_ratio(&tallies, 1),
+            t / t_one * variance_ratio(&tallies, 2)
+        )
+        .map_err(io)?;
+    }
     Ok(())
 }
 

@@ -76,7 +76,7 @@ impl Scene {
     /// σ_t of channel `w` in `layer`.
     #[inline]
     pub(super) fn sigma_t(&self, spectra: &ChannelSpectra, layer: usize, w: usize) -> f64 {
-        if let Some(&sigma) = spectra.sigma.get(w * (self.levels_km.len() - 1) + layer) {
+        if let Some(&sigma) = spectra.sigma.get(w * self.track.layers() + layer) {
             return sigma;
         }
         self.basis_parts(spectra, layer, w)
@@ -96,7 +96,7 @@ impl Scene {
     ) -> impl Iterator<Item = (f64, TermShape)> + 'a {
         let b = self.basis_len;
         let weights = &spectra.weights[w * b..(w + 1) * b];
-        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        let sigma = &self.track.sigma[layer * b..(layer + 1) * b];
         weights
             .iter()
             .zip(sigma)
@@ -108,7 +108,7 @@ impl Scene {
     #[inline]
     pub(super) fn accumulate(&self, tau: &mut [f64], layer: usize, len: f64) {
         let b = tau.len();
-        for (t, s) in tau.iter_mut().zip(&self.basis_sigma[layer * b..(layer + 1) * b]) {
+        for (t, s) in tau.iter_mut().zip(&self.track.sigma[layer * b..(layer + 1) * b]) {
             *t += s * len;
         }
     }
@@ -123,8 +123,9 @@ impl Scene {
         }
     }
 
-    /// The coefficients of channel `w` at fraction `f` of `layer` (see
-    /// [`Scene::fraction`]).
+    /// The coefficients of channel `w` at fraction `f` of the profile's
+    /// layer `layer` (see [`Scene::fraction`]; the tracking layer unless
+    /// layers are merged, `tracking`).
     #[inline]
     pub(super) fn coefficients(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> PointOptics {
         if let Some(c) = spectra.coefficients.get(w * (self.levels_km.len() - 1) + layer) {
@@ -139,8 +140,19 @@ impl Scene {
             }),
         };
         let mut c = sum.coefficients();
-        // The extinction the flights see (the same sum, on the basis).
-        c.sigma_t = self.sigma_t_point(spectra, layer, w, f);
+        // The same sum on the basis: what flights see, or, through merged
+        // layers, the profile layer's.
+        c.sigma_t = if self.track.merged {
+            let b = self.basis_len;
+            spectra.weights[w * b..(w + 1) * b]
+                .iter()
+                .zip(&self.basis_sigma[layer * b..(layer + 1) * b])
+                .map(|(a, s)| a * s)
+                .sum::<f64>()
+                .max(0.0)
+        } else {
+            self.sigma_t_point(spectra, layer, w, f)
+        };
         c
     }
 
@@ -166,7 +178,7 @@ impl Scene {
         if self.shapes.is_none() {
             return 0.0;
         }
-        let (z0, z1) = (self.levels_km[layer], self.levels_km[layer + 1]);
+        let (z0, z1) = (self.track.levels_km[layer], self.track.levels_km[layer + 1]);
         ((geometry.altitude(x) - z0) / (z1 - z0)).clamp(0.0, 1.0)
     }
 
@@ -215,10 +227,10 @@ impl Scene {
         let Some(shapes) = &self.shapes else {
             return self.accumulate(tau, layer, t1 - t0);
         };
-        let bounds = (self.levels_km[layer], self.levels_km[layer + 1]);
+        let bounds = (self.track.levels_km[layer], self.track.levels_km[layer + 1]);
         let integrals = shape_integrals(&shapes[layer], bounds, geometry, ray.origin, ray.dir, t0, t1);
         let b = tau.len();
-        let sigma = &self.basis_sigma[layer * b..(layer + 1) * b];
+        let sigma = &self.track.sigma[layer * b..(layer + 1) * b];
         for ((t, s), shape) in tau.iter_mut().zip(sigma).zip(&self.basis_shapes) {
             *t += s * integrals[shape.index()];
         }

@@ -24,7 +24,7 @@ impl Scene {
         geometry: &Geometry,
         ray: &Ray,
     ) -> Option<WalkEnd> {
-        let levels = &self.levels_km;
+        let levels = &self.track.levels_km;
         let b = self.basis_len;
         let tau = &mut d.tau_basis;
         tau.fill(0.0);
@@ -36,10 +36,10 @@ impl Scene {
                 let range = exit.levels();
                 let c = &mut d.chords[..range.len()];
                 crate::geometry::chord_kernels::half_chords_into(radius_km, &levels[range], exit.h, c);
-                let base = &self.basis_sigma[ray.layer * b..(ray.layer + 1) * b];
+                let base = &self.track.sigma[ray.layer * b..(ray.layer + 1) * b];
                 let stride = levels.len();
                 for (j, (t, s)) in tau.iter_mut().zip(base).enumerate() {
-                    *t = exit.depth(*s, &self.basis_steps[j * stride..(j + 1) * stride], c);
+                    *t = exit.depth(*s, &self.track.steps[j * stride..(j + 1) * stride], c);
                 }
                 let end = exit.end(radius_km, levels, ray);
                 d.exit = Some(exit);
@@ -81,12 +81,12 @@ impl Scene {
         if self.shapes.is_some() || self.basis_len != 1 {
             return matches!(self.exit_depths(d, spectra, geometry, ray), Some(WalkEnd::Top { .. }));
         }
-        let levels = &self.levels_km;
+        let levels = &self.track.levels_km;
         let exit = crate::geometry::shell_exit::shell_exit(radius_km, levels, ray);
         if exit.ground {
             return false;
         }
-        let steps = &self.basis_steps;
+        let steps = &self.track.steps;
         let sum = |r: &std::ops::Range<usize>| {
             crate::geometry::chord_kernels::weighted_half_chords(
                 radius_km,
@@ -95,7 +95,7 @@ impl Scene {
                 exit.h,
             )
         };
-        d.tau_basis[0] = -exit.b * self.basis_sigma[ray.layer] + 2.0 * sum(&exit.twice) + sum(&exit.once);
+        d.tau_basis[0] = -exit.b * self.track.sigma[ray.layer] + 2.0 * sum(&exit.twice) + sum(&exit.once);
         Self::combine(spectra, &d.tau_basis, &mut d.tau);
         true
     }
@@ -151,7 +151,8 @@ impl Scene {
             let WalkEnd::Ground { t } = end else {
                 return Outcome::Escaped;
             };
-            // The ground, reached with probability e^(−τ) at every λ.
+            // The ground, reached with probability e^(−τ) at every λ (and
+            // through merged layers, the residual's factor on the way).
             let tau_hero = path.ray.tau[hero];
             for w in 0..n {
                 let k = if w == hero {
@@ -159,7 +160,7 @@ impl Scene {
                 } else {
                     (tau_hero - path.ray.tau[w]).exp()
                 };
-                path.throughput[w] = path.throughput[w] * k;
+                path.throughput[w] = path.throughput[w] * (k * path.residual_to(f64::INFINITY, w));
                 path.scale_density(w, k);
             }
             path.densities_changed();
@@ -178,8 +179,18 @@ impl Scene {
         let geometry = &self.geometry;
         // The collision's density per wavelength, over the hero's: the
         // hero's e^(−τ) cancels, so each channel's transmittance comes in
-        // relative to the hero's (none to compute for the hero).
-        let f = self.fraction(geometry, layer, ray.origin + t * ray.dir);
+        // relative to the hero's (none to compute for the hero). Through
+        // merged layers, the densities are theirs, while σ_s, the phase
+        // matrices and the residual's factor make the integrand the
+        // profile's (`tracking`).
+        let x = ray.origin + t * ray.dir;
+        let f = self.fraction(geometry, layer, x);
+        let merged = self.track.merged;
+        let profile_layer = if merged {
+            self.track.profile_layer(&self.levels_km, layer, geometry.altitude(x))
+        } else {
+            layer
+        };
         let density = |sigma_t: f64, p: f64| {
             if !forced {
                 sigma_t
@@ -193,15 +204,21 @@ impl Scene {
         let tau_hero = path.tau_hit[hero];
         path.mixtures.clear();
         for w in 0..n {
-            let c = self.coefficients(spectra, layer, w, f);
-            path.mixtures.push(self.phase_mixture(spectra, layer, w, &c));
+            let c = self.coefficients(spectra, profile_layer, w, f);
+            path.mixtures.push(self.phase_mixture(spectra, profile_layer, w, &c));
             let transmittance = if w == hero {
                 1.0
             } else {
                 (tau_hero - path.tau_hit[w]).exp()
             };
-            let k = density(c.sigma_t, path.forced[w]) * transmittance * inv_hero;
-            path.throughput[w] = path.throughput[w] * (c.sigma_s() * transmittance * inv_hero);
+            let sigma_t = if merged {
+                self.sigma_t_point(spectra, layer, w, f)
+            } else {
+                c.sigma_t
+            };
+            let k = density(sigma_t, path.forced[w]) * transmittance * inv_hero;
+            let integrand = c.sigma_s() * transmittance * path.residual_to(t, w);
+            path.throughput[w] = path.throughput[w] * (integrand * inv_hero);
             path.scale_density(w, k);
         }
         path.densities_changed();
@@ -212,14 +229,16 @@ impl Scene {
     /// (σ_t exact per layer): from the half chords `exit_depths` left, or
     /// walked; the end if rounding leaves the target beyond it.
     pub(super) fn locate(&self, path: &Path, spectra: &ChannelSpectra, ray: &Ray, target: f64) -> (f64, usize) {
-        let layers = self.levels_km.len() - 1;
+        let layers = self.track.layers();
         let sigma = match spectra.sigma.get(path.hero * layers..(path.hero + 1) * layers) {
             Some(shared) => shared,
             None => &path.hero_sigma,
         };
         let c = match &path.ray.exit {
             Some(exit) => exit.locate(sigma, &path.ray.chords, target),
-            None => crate::transport::free_flight::locate_with(sigma, &self.geometry, &self.levels_km, ray, target),
+            None => {
+                crate::transport::free_flight::locate_with(sigma, &self.geometry, &self.track.levels_km, ray, target)
+            }
         };
         (c.t, c.layer)
     }
@@ -248,7 +267,7 @@ impl Scene {
                 let _ = exit.try_for_each_segment(chords, visit);
             }
             None => {
-                crate::geometry::ray::walk(geometry, &self.levels_km, ray, visit);
+                crate::geometry::ray::walk(geometry, &self.track.levels_km, ray, visit);
             }
         }
     }
@@ -267,11 +286,17 @@ impl Scene {
         let hero = path.hero;
         let geometry = &self.geometry;
         let majorant = |layer| self.majorant(spectra, layer, hero);
-        let end =
-            crate::transport::free_flight::sample_t_maj(majorant, geometry, &self.levels_km, ray, sampler, |c, s| {
+        let end = crate::transport::free_flight::sample_t_maj(
+            majorant,
+            geometry,
+            &self.track.levels_km,
+            ray,
+            sampler,
+            |c, s| {
                 let f = self.fraction(geometry, c.layer, ray.origin + c.t * ray.dir);
                 s.next_f64() * c.sigma_maj >= self.sigma_t_point(spectra, c.layer, hero, f)
-            });
+            },
+        );
         let FlightEnd::Collided(c) = end else {
             return None;
         };
@@ -308,7 +333,7 @@ impl Scene {
                 let _ = exit.try_for_each_segment(&depths.chords, push);
             }
             None => {
-                crate::geometry::ray::walk(&self.geometry, &self.levels_km, ray, push);
+                crate::geometry::ray::walk(&self.geometry, &self.track.levels_km, ray, push);
             }
         }
         segments.iter().all(|seg| seg.t1.is_finite())

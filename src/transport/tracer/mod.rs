@@ -84,10 +84,13 @@ mod channel_optics;
 mod direct;
 mod flight;
 mod path;
+mod residual;
 mod scene;
 mod spectra;
 mod sun_connection;
 mod trace;
+mod tracking;
 mod vertex;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};
+pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};

@@ -61,6 +61,11 @@ pub(super) struct Path {
     pub(super) point_basis: Vec<f64>,
     /// The hero's σ_t per layer, where the spectra do not hold it.
     pub(super) hero_sigma: Vec<f64>,
+    /// Through merged layers: the residual's points along the current
+    /// flight and, per point, every channel's product of factors up to it
+    /// (`[point·channels + channel]`; `tracking`).
+    pub(super) residual_t: Vec<f64>,
+    pub(super) residual_tr: Vec<f64>,
 }
 
 /// Optical depths along one ray to where it leaves.
@@ -74,6 +79,9 @@ pub(super) struct Depths {
     /// how it crosses them (spherical geometry).
     pub(super) chords: Vec<f64>,
     pub(super) exit: Option<ShellExit>,
+    /// Scratch per basis vector: a shadow ray's residual at a point
+    /// (`control`).
+    pub(super) residual: Vec<f64>,
 }
 
 impl Depths {
@@ -81,6 +89,7 @@ impl Depths {
     pub(super) fn reset(&mut self, n: usize, levels: usize, basis: usize) {
         self.tau.resize(n, 0.0);
         self.tau_basis.resize(basis, 0.0);
+        self.residual.resize(basis, 0.0);
         self.chords.resize(levels, 0.0);
     }
 }
@@ -145,6 +154,8 @@ impl Path {
         }
         self.ray.reset(n, levels, basis);
         self.shadow.reset(n, levels, basis);
+        self.residual_t.clear();
+        self.residual_tr.clear();
     }
 
     /// This path as a branch of `other`: its state (throughputs, densities,
@@ -170,6 +181,8 @@ impl Path {
         let (levels, basis) = (other.ray.chords.len(), other.ray.tau_basis.len());
         self.ray.reset(n, levels, basis);
         self.shadow.reset(n, levels, basis);
+        self.residual_t.clear();
+        self.residual_tr.clear();
     }
 
     /// Halves every wavelength's throughput (one of two branches).

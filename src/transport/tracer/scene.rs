@@ -11,7 +11,7 @@ use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::{SpectralTerms, TermOptics, TermShape};
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
-use crate::job::options::{MAX_ALBEDOS, Settings};
+use crate::job::options::{MAX_ALBEDOS, Settings, SunTransmittance, TrackingLayers};
 use crate::job::spectrum::Channel;
 use crate::physics::solar::SolarSpectrum;
 use crate::transport::medium::density_steps;
@@ -20,6 +20,7 @@ use crate::transport::sun_depth::SunDepth;
 use super::aerosol_phase::AerosolPhases;
 use super::path::SunFollow;
 use super::spectra::{Basis, ChannelSpectra};
+use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::reflects;
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
@@ -47,8 +48,6 @@ pub struct Scene {
     pub(super) basis_len: usize,
     /// σ of each basis vector per layer (`[layer·basis + b]`).
     pub(super) basis_sigma: Vec<f64>,
-    /// Its steps per level (`[b·levels + level]`, see `Medium::steps`).
-    pub(super) basis_steps: Vec<f64>,
     /// The spectra of monochromatic channels (all paths share them); for
     /// bands, each path has its own.
     pub(super) fixed: Option<ChannelSpectra>,
@@ -74,6 +73,9 @@ pub struct Scene {
     pub(super) pseudo_spherical_radius_km: Option<f64>,
     /// The aerosol's tabulated phase matrices (`None`: Henyey–Greenstein).
     pub(super) aerosol_phases: Option<AerosolPhases>,
+    /// The layers paths are tracked through: the profile's, or merged
+    /// (`TrackingLayers::Merged`, `tracking`).
+    pub(super) track: Tracking,
 }
 
 /// How the medium between a scene's levels is modelled and tracked.
@@ -133,8 +135,26 @@ impl Scene {
             Basis::Terms(k) => k.iter().map(|&k| term_shapes[k]).collect(),
             Basis::Channels => vec![TermShape::Flat; b],
         };
-        let basis_sigma = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
-        let basis_steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
+        let basis_sigma: Vec<f64> = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
+        let basis_steps: Vec<f64> = profiles.iter().flat_map(|p| density_steps(p)).collect();
+        // "auto" tracks paths through merged layers in a fine profile;
+        // merging needs the layered medium, spherical shells and analytic
+        // shadow rays (`tracking`).
+        let mut settings = settings;
+        let mergeable = medium.shapes.is_none()
+            && matches!(geometry, Geometry::Spherical { .. })
+            && settings.sun_transmittance == SunTransmittance::Analytic;
+        settings.tracking_layers = match settings.tracking_layers {
+            TrackingLayers::Auto | TrackingLayers::Merged if !mergeable => TrackingLayers::Profile,
+            TrackingLayers::Auto if layers <= AUTO_MIN_LAYERS => TrackingLayers::Profile,
+            TrackingLayers::Auto => TrackingLayers::Merged,
+            other => other,
+        };
+        let track = if settings.tracking_layers == TrackingLayers::Merged {
+            Tracking::merged(&levels_km, &basis_sigma, b)
+        } else {
+            Tracking::exact(&levels_km, &basis_sigma, &basis_steps)
+        };
         let range_nm = channels.iter().fold((f64::MAX, f64::MIN), |(lo, hi), c| {
             let half = 0.5 * c.band_width_nm;
             (lo.min(c.lambda_nm - half), hi.max(c.lambda_nm + half))
@@ -151,7 +171,6 @@ impl Scene {
             basis,
             basis_len: b,
             basis_sigma,
-            basis_steps,
             fixed: None,
             solar: None,
             sun_follow: None,
@@ -161,6 +180,7 @@ impl Scene {
             majorant_scale: medium.majorant_scale.max(1.0),
             pseudo_spherical_radius_km: medium.pseudo_spherical_radius_km,
             aerosol_phases,
+            track,
         };
         if !banded {
             let mut fixed = ChannelSpectra {
@@ -172,7 +192,7 @@ impl Scene {
                 coefficients: Vec::new(),
             };
             scene.refresh_weights(&mut fixed);
-            let layers = scene.levels_km.len() - 1;
+            let layers = scene.track.layers();
             fixed.sigma = (0..n * layers)
                 .map(|i| scene.sigma_t(&fixed, i % layers, i / layers))
                 .collect();
@@ -207,7 +227,11 @@ impl Scene {
     /// scattering of the channels (`Scene::sun_along_flight`)
     /// instead of the connection at the collision.
     pub fn with_sun_aware(mut self) -> Scene {
-        let layers = self.levels_km.len() - 1;
+        // Per tracking layer: the optics of its (middle) profile layer, a
+        // density to draw points from like any other.
+        let track = &self.track;
+        let layers = track.layers();
+        let profile_layer = |m: usize| if track.merged { track.middle_layer(m) } else { m };
         // Each channel's coefficients per layer at its centre wavelength,
         // and its column extinction.
         let t = self.terms.terms.len();
@@ -219,12 +243,12 @@ impl Scene {
             .map(|(w, c)| {
                 self.terms.responses_into(c.lambda_nm, &mut responses);
                 let coeffs: Vec<PointOptics> = (0..layers)
-                    .map(|l| self.terms.layer_sum(l, &responses).coefficients())
+                    .map(|m| self.terms.layer_sum(profile_layer(m), &responses).coefficients())
                     .collect();
                 let column = coeffs
                     .iter()
                     .enumerate()
-                    .map(|(l, c)| c.sigma_t * (self.levels_km[l + 1] - self.levels_km[l]))
+                    .map(|(m, c)| c.sigma_t * (track.levels_km[m + 1] - track.levels_km[m]))
                     .sum::<f64>();
                 (column, w, coeffs)
             })
@@ -240,7 +264,7 @@ impl Scene {
             .map(|f| f.2.iter().map(|c| c.sigma_t).collect())
             .collect();
         let depth = SunDepth::of_profiles(
-            &self.levels_km,
+            &track.levels_km,
             &sigmas,
             &self.geometry,
             self.sun.direction,
@@ -261,6 +285,12 @@ impl Scene {
     /// The atmosphere's levels (km).
     pub fn levels_km(&self) -> &[f64] {
         &self.levels_km
+    }
+
+    /// The number of layers paths are tracked through (the profile's, or
+    /// fewer where they are merged: `Settings::tracking_layers`).
+    pub fn tracked_layers(&self) -> usize {
+        self.track.layers()
     }
 
     /// The number of channels.

@@ -41,20 +41,22 @@ impl Scene {
         Self::combine(spectra, &path.point_basis, &mut path.tau_hit);
         path.mixtures.clear();
         path.factors.clear();
+        // The optics of the profile's layer there, and the residual's
+        // factor on the way, through merged layers (`tracking`).
+        let x = ray.origin + t * ray.dir;
+        let l = if self.track.merged {
+            self.track
+                .profile_layer(&self.levels_km, seg.layer, self.geometry.altitude(x))
+        } else {
+            seg.layer
+        };
         for w in 0..self.channels.len() {
-            let c = self.coefficients(spectra, seg.layer, w, 0.0);
-            path.mixtures.push(self.phase_mixture(spectra, seg.layer, w, &c));
-            path.factors.push((-path.tau_hit[w]).exp() / q * c.sigma_s());
+            let c = self.coefficients(spectra, l, w, 0.0);
+            path.mixtures.push(self.phase_mixture(spectra, l, w, &c));
+            path.factors
+                .push((-path.tau_hit[w]).exp() * path.residual_to(t, w) / q * c.sigma_s());
         }
-        self.sun_from(
-            path,
-            spectra,
-            ray.origin + t * ray.dir,
-            seg.layer,
-            -ray.dir,
-            sampler,
-            true,
-        );
+        self.sun_from(path, spectra, x, seg.layer, -ray.dir, sampler, true);
     }
 
     /// Stratified sun connections along a forced flight
@@ -203,11 +205,16 @@ impl Scene {
         );
         match self.settings.sun_transmittance {
             SunTransmittance::Analytic => {
+                // Through the tracking layers; where they are merged, the
+                // residual's estimate too (`tracking`).
                 if !self.shadow_depths(&mut path.shadow, spectra, &geometry, &ray) {
                     return false;
                 }
                 for (tr, tau) in path.shadow_tr.iter_mut().zip(&path.shadow.tau) {
                     *tr = (-tau).exp();
+                }
+                if let (true, Geometry::Spherical { radius_km }) = (self.track.merged, geometry) {
+                    self.shadow_residual(path, spectra, radius_km, &ray, sampler);
                 }
                 true
             }
@@ -223,7 +230,7 @@ impl Scene {
                 let end = crate::transport::free_flight::sample_t_maj(
                     majorant,
                     &geometry,
-                    &self.levels_km,
+                    &self.track.levels_km,
                     &ray,
                     sampler,
                     |c, _| {

@@ -35,7 +35,7 @@ impl Scene {
             let n = self.channels.len();
             let albedos = self.albedos.len().min(MAX_ALBEDOS);
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
-            let levels = &self.levels_km;
+            let levels = &self.track.levels_km;
             path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
             if spectra.sigma.is_empty() {
                 path.hero_sigma.clear();
@@ -98,6 +98,9 @@ impl Scene {
             let Some(end) = self.exit_depths(&mut path.ray, spectra, &self.geometry, &ray) else {
                 return;
             };
+            if self.track.merged {
+                self.flight_residual(path, spectra, &ray, sampler);
+            }
             // A forced flight toward a reflecting ground is split at the
             // sensor's first vertex, else analog.
             let to_ground = matches!(end, WalkEnd::Ground { .. }) && self.reflects();
@@ -113,8 +116,8 @@ impl Scene {
                         && self.sun_stratified(path, spectra, &ray, sampler)));
             if let (true, WalkEnd::Ground { t }, Some(branch)) = (split, end, spare.as_deref_mut()) {
                 branch.branch_from(path);
-                for (m, tau) in branch.throughput.iter_mut().zip(&path.ray.tau) {
-                    *m = *m * (-tau).exp();
+                for (w, (m, tau)) in branch.throughput.iter_mut().zip(&path.ray.tau).enumerate() {
+                    *m = *m * ((-tau).exp() * path.residual_to(f64::INFINITY, w));
                 }
                 self.trace_on_from_ground(branch, spectra, ray.origin + t * ray.dir, sampler);
                 std::mem::swap(&mut path.radiance, &mut branch.radiance);
