@@ -102,6 +102,8 @@ fn bench_ratios_report_every_ratio_before_the_throughput_line() {
         "720–760 nm band:",
         "analog first vertex:",
         "analog flights (forced_collisions = false, first_vertex_splitting = false):",
+        "fine profile (US standard every 100 m, 1000 layers) through its own layers:",
+        "merged layers:",
         "threads vs 1: throughput ratio",
     ] {
         assert!(text.contains(line), "no {line:?} in\n{text}");
@@ -132,6 +134,28 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
     );
     let out = atmosim().args(["bench", "--grid", "--ratios"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
+    // Fixed samples instead of the noise target: the same report, no pilot.
+    let out = atmosim()
+        .args(["bench", "--grid", "--quick", "--samples", "4"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.starts_with("grid benchmark: 3 tasks, 64x32 full-sphere images to 4 samples per pixel"),
+        "{text}"
+    );
+    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("(0 % pilot)")).collect();
+    assert_eq!(tasks.len(), 3, "{text}");
+    assert!(text.lines().last().unwrap().starts_with("grid_core_hours_per_task: "));
+    // Only with --grid, and at least 2 samples.
+    for args in [
+        &["bench", "--samples", "4"][..],
+        &["bench", "--grid", "--samples", "1"][..],
+    ] {
+        let out = atmosim().args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
 }
 
 #[test]

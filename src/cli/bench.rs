@@ -27,6 +27,11 @@ pub struct BenchArgs {
     /// `grid_core_hours_per_task: <mean> <max>`.
     #[arg(long, conflicts_with = "ratios")]
     grid: bool,
+    /// With --grid: render every task with this many samples per pixel
+    /// instead of to the noise target (the same scaling to the target
+    /// follows: the fixed-sample figure to compare with).
+    #[arg(long, requires = "grid", value_parser = clap::value_parser!(u64).range(2..=1_048_576))]
+    samples: Option<u64>,
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
@@ -35,12 +40,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         threads,
         ratios,
         grid,
+        samples: fixed,
     } = args;
     let pool = thread_pool(threads)?;
     if grid {
         // Unlocked: each task's line appears when it is done.
         let mut out = std::io::stdout();
-        pool.install(|| atmosim::run::grid_bench::run(quick, &mut out))?;
+        pool.install(|| atmosim::run::grid_bench::run(quick, fixed, &mut out))?;
         return Ok(());
     }
     let samples = if quick { 20_000 } else { 400_000 };

@@ -29,6 +29,10 @@
 //! The core-seconds are split between pilot and allocated samples by their
 //! paths. The last line is `grid_core_hours_per_task: <mean> <max>` over
 //! the tasks.
+//!
+//! With a fixed sample count (`bench --grid --samples N`) every pixel gets
+//! N samples instead (no pilot) and the same scaling follows: the figure a
+//! fixed-sample render computes, to compare with.
 
 use std::io::Write;
 use std::time::Instant;
@@ -125,11 +129,16 @@ pub fn samples_factor(noise: &[BandNoise]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Renders the subset on the current rayon pool and writes the report;
-/// returns the mean and largest core-hours per task.
-pub fn run(quick: bool, out: &mut dyn Write) -> Result<(f64, f64)> {
-    let samples =
-        format!("noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}");
+/// Renders the subset on the current rayon pool, to the benchmark's noise
+/// target or with `fixed` samples per pixel, and writes the report; returns
+/// the mean and largest core-hours per task.
+pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64, f64)> {
+    let samples = match fixed {
+        Some(n) => format!("samples = {n}"),
+        None => {
+            format!("noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}")
+        }
+    };
     let text = job_text(quick, &samples);
     let job = Job::parse(&text, "<grid benchmark>", std::path::Path::new("."))?;
     let Sensor::Image(camera) = &job.render.sensor else {
@@ -138,10 +147,15 @@ pub fn run(quick: bool, out: &mut dyn Write) -> Result<(f64, f64)> {
     let threads = rayon::current_num_threads() as f64;
     let pixels = 64.0 * 32.0;
     let io = |e: std::io::Error| Error::io(std::path::Path::new("<stdout>"), e);
+    let how = match fixed {
+        Some(n) => format!("{n} samples per pixel"),
+        None => format!(
+            "a noise target of {BENCH_TARGET} (pilot {BENCH_PILOT}, at most {BENCH_MAX_SAMPLES} samples per pixel)"
+        ),
+    };
     writeln!(
         out,
-        "grid benchmark: {} tasks, 64x32 full-sphere images to a noise target of {BENCH_TARGET} (pilot \
-         {BENCH_PILOT}, at most {BENCH_MAX_SAMPLES} samples per pixel), 11 bands of 40 nm, albedos 0 0.3 0.6 1, \
+        "grid benchmark: {} tasks, 64x32 full-sphere images to {how}, 11 bands of 40 nm, albedos 0 0.3 0.6 1, \
          {threads} threads; relative standard error of I per pixel, worst albedo > 0",
         job.tasks.len()
     )

@@ -31,7 +31,10 @@
 //! ground is analog, or at the sensor's first vertex split into both ends.
 //! A collision at x has density σ_t,λ(x)·e^(−τ_λ(x)) at every channel
 //! (over its forcing probability when forced). Absorption is a weight:
-//! σ_s/σ_t at each collision.
+//! σ_s/σ_t at each collision. Flights cross the layers of `tracking`: the
+//! profile's, or in a fine profile runs of them merged, where every
+//! density is the merged layers' and the integrand's transmittances carry a
+//! ratio-tracked residual (`residual`), so the estimate is the profile's.
 //!
 //! **Scattering**: the σ_s-weighted mixture of Rayleigh (with
 //! depolarisation) and Henyey–Greenstein phase matrices, in the
