@@ -107,7 +107,7 @@ impl PhaseMixture {
 
     /// Samples a direction for light along `k_in` from the mixture: a
     /// component picked with its weight by `u_pick`, then its own exact
-    /// sampling with `u` ([`PhaseSample::direction`]). The density is the
+    /// sampling with `u` ([`crate::polarization::phase::PhaseSample::direction`]). The density is the
     /// mixture's P11/(4π), which [`PhaseMixture::matrix`] evaluates.
     #[inline]
     pub fn sample_direction(&self, k_in: DVec3, u_pick: f64, u: [f64; 2], tables: &PhaseTableSet) -> DVec3 {

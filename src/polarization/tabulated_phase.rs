@@ -373,7 +373,7 @@ impl TabulatedPhaseMatrix {
     }
 
     /// Samples cos Θ ∝ P11 from `u[0]` by inverting the CDF exactly and the
-    /// azimuth φ = 2π·u[1].
+    /// azimuth φ = 2π·`u[1]`.
     ///
     /// The segment i with CDF_i ≤ u < CDF_{i+1} is found by binary search.
     /// On it P11 = p_i + s·t with t = μ − μ_i, so the mass r = u − CDF_i

@@ -1,5 +1,5 @@
 //! Weighted sums over many spheres of the scattering-matrix elements at many
-//! angles, Σᵢ wᵢ·[S11, S12, S33, S34](Θⱼ), the inner loop of an ensemble's
+//! angles, Σᵢ wᵢ·(S11, S12, S33, S34)(Θⱼ), the inner loop of an ensemble's
 //! phase matrix ([`super::lognormal`]).
 //!
 //! The amplitude functions of Bohren & Huffman (1983) Eq. 4.74,
