@@ -166,6 +166,16 @@ fn shared_ratios(spectrum: &SharedCase, samples: u64, t_one: f64, out: &mut dyn 
     Ok(())
 }
 
+/// Mean over the directions of (a's standard error / b's)² for Stokes
+/// component `s`.
+fn variance_ratio(a: &[Tally], b: &[Tally], s: usize) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
+        .sum::<f64>()
+        / a.len() as f64
+}
+
 /// Mean over directions of the relative standard error of I.
 fn mean_rel_se(tallies: &[Tally]) -> f64 {
     tallies.iter().map(|t| t.standard_error()[0] / t.mean()[0]).sum::<f64>() / tallies.len() as f64
@@ -233,15 +243,6 @@ pub fn ratios(samples: u64, serial: &rayon::ThreadPool, out: &mut dyn Write) -> 
             render_directions(&scene, alt, dirs, samples, seed, Render::channel(0, 0))
         }))
     };
-    // Mean over the directions of (a's standard error / b's)² for Stokes
-    // component s.
-    let variance_ratio = |a: &[Tally], b: &[Tally], s: usize| {
-        a.iter()
-            .zip(b)
-            .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
-            .sum::<f64>()
-            / a.len() as f64
-    };
     let (t_analog, unsplit) = with_keys("first_vertex_splitting = false")?;
     writeln!(
         out,
@@ -307,13 +308,6 @@ fn fine_profile_ratios(samples: u64, (t_one, coarse): (f64, &[Tally]), out: &mut
     let _ = std::fs::remove_dir_all(&dir);
     let (own, merged) = jobs?;
     let (dirs, alt) = (own.render.directions(), own.observer_altitude_km);
-    let variance_ratio = |a: &[Tally], s: usize| {
-        a.iter()
-            .zip(coarse)
-            .map(|(a, b)| (a.standard_error()[s] / b.standard_error()[s]).powi(2))
-            .sum::<f64>()
-            / a.len() as f64
-    };
     let coarse_layers = Job::parse(REFERENCE_JOB, "throughput_reference.toml", Path::new("."))?
         .scene(0)
         .levels_km()
@@ -332,9 +326,9 @@ fn fine_profile_ratios(samples: u64, (t_one, coarse): (f64, &[Tally]), out: &mut
             profile.layer_count(),
             t / t_one,
             coarse_layers,
-            t / t_one * variance_ratio(&tallies, 0),
-            t / t_one * variance_ratio(&tallies, 1),
-            t / t_one * variance_ratio(&tallies, 2)
+            t / t_one * variance_ratio(&tallies, coarse, 0),
+            t / t_one * variance_ratio(&tallies, coarse, 1),
+            t / t_one * variance_ratio(&tallies, coarse, 2)
         )
         .map_err(io)?;
     }

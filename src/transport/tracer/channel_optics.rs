@@ -182,6 +182,17 @@ impl Scene {
         ((geometry.altitude(x) - z0) / (z1 - z0)).clamp(0.0, 1.0)
     }
 
+    /// The profile's layer at `x` in tracking layer `layer`: itself unless
+    /// layers are merged (`tracking`).
+    #[inline]
+    pub(super) fn profile_layer(&self, layer: usize, x: DVec3) -> usize {
+        if !self.track.merged {
+            return layer;
+        }
+        self.track
+            .profile_layer(&self.levels_km, layer, self.geometry.altitude(x))
+    }
+
     /// σ_t of channel `w` at fraction `f` of `layer`.
     #[inline]
     pub(super) fn sigma_t_point(&self, spectra: &ChannelSpectra, layer: usize, w: usize, f: f64) -> f64 {

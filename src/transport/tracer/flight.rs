@@ -186,11 +186,7 @@ impl Scene {
         let x = ray.origin + t * ray.dir;
         let f = self.fraction(geometry, layer, x);
         let merged = self.track.merged;
-        let profile_layer = if merged {
-            self.track.profile_layer(&self.levels_km, layer, geometry.altitude(x))
-        } else {
-            layer
-        };
+        let profile_layer = self.profile_layer(layer, x);
         let density = |sigma_t: f64, p: f64| {
             if !forced {
                 sigma_t

@@ -136,7 +136,6 @@ impl Scene {
             Basis::Channels => vec![TermShape::Flat; b],
         };
         let basis_sigma: Vec<f64> = (0..layers).flat_map(|l| profiles.iter().map(move |p| p[l])).collect();
-        let basis_steps: Vec<f64> = profiles.iter().flat_map(|p| density_steps(p)).collect();
         // "auto" tracks paths through merged layers in a fine profile;
         // merging needs the layered medium, spherical shells and analytic
         // shadow rays (`tracking`).
@@ -153,7 +152,8 @@ impl Scene {
         let track = if settings.tracking_layers == TrackingLayers::Merged {
             Tracking::merged(&levels_km, &basis_sigma, b)
         } else {
-            Tracking::exact(&levels_km, &basis_sigma, &basis_steps)
+            let steps = profiles.iter().flat_map(|p| density_steps(p)).collect();
+            Tracking::exact(&levels_km, &basis_sigma, steps)
         };
         let range_nm = channels.iter().fold((f64::MAX, f64::MIN), |(lo, hi), c| {
             let half = 0.5 * c.band_width_nm;
@@ -231,7 +231,6 @@ impl Scene {
         // density to draw points from like any other.
         let track = &self.track;
         let layers = track.layers();
-        let profile_layer = |m: usize| if track.merged { track.middle_layer(m) } else { m };
         // Each channel's coefficients per layer at its centre wavelength,
         // and its column extinction.
         let t = self.terms.terms.len();
@@ -243,7 +242,7 @@ impl Scene {
             .map(|(w, c)| {
                 self.terms.responses_into(c.lambda_nm, &mut responses);
                 let coeffs: Vec<PointOptics> = (0..layers)
-                    .map(|m| self.terms.layer_sum(profile_layer(m), &responses).coefficients())
+                    .map(|m| self.terms.layer_sum(track.middle_layer(m), &responses).coefficients())
                     .collect();
                 let column = coeffs
                     .iter()

@@ -44,12 +44,7 @@ impl Scene {
         // The optics of the profile's layer there, and the residual's
         // factor on the way, through merged layers (`tracking`).
         let x = ray.origin + t * ray.dir;
-        let l = if self.track.merged {
-            self.track
-                .profile_layer(&self.levels_km, seg.layer, self.geometry.altitude(x))
-        } else {
-            seg.layer
-        };
+        let l = self.profile_layer(seg.layer, x);
         for w in 0..self.channels.len() {
             let c = self.coefficients(spectra, l, w, 0.0);
             path.mixtures.push(self.phase_mixture(spectra, l, w, &c));

@@ -68,11 +68,11 @@ pub(super) struct Tracking {
 
 impl Tracking {
     /// Tracking through the profile's own layers.
-    pub(super) fn exact(levels_km: &[f64], sigma: &[f64], steps: &[f64]) -> Tracking {
+    pub(super) fn exact(levels_km: &[f64], sigma: &[f64], steps: Vec<f64>) -> Tracking {
         Tracking {
             levels_km: levels_km.to_vec(),
             sigma: sigma.to_vec(),
-            steps: steps.to_vec(),
+            steps,
             merged: false,
             profile_level: (0..levels_km.len()).collect(),
             residual: Vec::new(),
@@ -151,14 +151,12 @@ impl Tracking {
     /// (`profile_km` the profile's levels).
     #[inline]
     pub(super) fn profile_layer(&self, profile_km: &[f64], m: usize, z: f64) -> usize {
-        if !self.merged {
-            return m;
-        }
         let (first, last) = (self.profile_level[m], self.profile_level[m + 1] - 1);
         (first + profile_km[first + 1..=last].partition_point(|&level| level <= z)).min(last)
     }
 
-    /// The profile layer in the middle of tracking layer `m`.
+    /// The profile layer in the middle of tracking layer `m` (`m` itself
+    /// where nothing is merged).
     pub(super) fn middle_layer(&self, m: usize) -> usize {
         (self.profile_level[m] + self.profile_level[m + 1] - 1) / 2
     }
