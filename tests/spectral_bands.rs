@@ -420,10 +420,10 @@ fn spectral_groups_put_every_band_in_its_place() {
         let task = &grouped.tasks[0];
         assert_eq!(grouped.spectral_groups(task), vec![vec![1, 3], vec![0, 2]]);
         assert_eq!(one.spectral_groups(task), vec![vec![0, 1, 2, 3]]);
-        // "auto": two groups by day over bands whose column extinctions
-        // span more than 3 (here 0.93 at 340 nm to 0.11 at 740 nm), one
-        // with the sun set, or over a narrow span (0.38 to 0.25 from 450 to
-        // 550 nm).
+        // "auto": two groups over bands whose column extinctions span
+        // more than 3 (here 0.93 at 340 nm to 0.11 at 740 nm), by day and
+        // with the sun set alike, one over a narrow span (0.38 to 0.25 from
+        // 450 to 550 nm).
         let auto = |text: &str| {
             let j = job(text);
             j.spectral_groups(&j.tasks[0])
@@ -431,7 +431,7 @@ fn spectral_groups_put_every_band_in_its_place() {
         assert_eq!(auto(base), vec![vec![1, 3], vec![0, 2]]);
         assert_eq!(
             auto(&base.replace("elevation_deg = 15.0", "elevation_deg = -4.2")),
-            vec![vec![0, 1, 2, 3]]
+            vec![vec![1, 3], vec![0, 2]]
         );
         assert_eq!(
             auto(&base.replace("[740.0, 340.0, 580.0, 420.0]", "[450.0, 550.0]")),

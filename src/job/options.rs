@@ -70,8 +70,7 @@ impl Settings {
 /// wavelengths and the balance heuristic inside the group).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SpectralGroups {
-    /// Two groups by column extinction while the sun is at or above
-    /// [`AUTO_GROUPS_MIN_ELEVATION_DEG`] and the channels' column
+    /// Two groups by column extinction where the channels' column
     /// extinctions span at least [`AUTO_GROUPS_MIN_SPREAD`], else one
     /// (where every channel gains from the others' paths):
     /// `transport::scene_build` states the measurements.
@@ -79,11 +78,6 @@ pub enum SpectralGroups {
     /// This many groups (1: every channel along the same paths).
     Count(usize),
 }
-
-/// The lowest sun elevation (°) at which `spectral_groups = "auto"` makes
-/// two groups: between the sky model grid's −4.2° (one group is cheaper)
-/// and −3° (two are).
-pub const AUTO_GROUPS_MIN_ELEVATION_DEG: f64 = -3.5;
 
 /// The least ratio of the largest to the smallest column extinction of the
 /// channels at which `spectral_groups = "auto"` makes two groups: the

@@ -2,7 +2,7 @@
 //! task's paths carry, with the job's albedos, medium and settings. (An
 //! inherent `impl Job` here, so the job itself knows nothing of transport.)
 
-use crate::job::options::{AUTO_GROUPS_MIN_ELEVATION_DEG, AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups};
+use crate::job::options::{AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups};
 use crate::job::spectrum::Channel;
 use crate::job::{Job, Task};
 use crate::transport::tracer::{MediumSettings, Scene};
@@ -21,9 +21,9 @@ impl Job {
     /// extinct first. Channels are ranked by their column extinction at
     /// their centre wavelength and cut into groups at equal steps of its
     /// logarithm, so each group holds channels whose paths look alike
-    /// (empty steps make no group). "auto" makes two groups while the sun
-    /// is at or above [`AUTO_GROUPS_MIN_ELEVATION_DEG`] and the column
-    /// extinctions span at least [`AUTO_GROUPS_MIN_SPREAD`], else one.
+    /// (empty steps make no group). "auto" makes two groups where the
+    /// column extinctions span at least [`AUTO_GROUPS_MIN_SPREAD`], else
+    /// one.
     ///
     /// Why: the balance heuristic over channels whose optical depths differ
     /// several-fold gives the most extinct one little of the others' paths,
@@ -32,10 +32,12 @@ impl Job {
     /// extinction 1.37 to 0.27 at 20 km visibility, 0.81 to 0.068 at
     /// 131.8 km), two groups (320–480 and 480–760 nm) cost 0.5–0.8 times
     /// one group of eleven for the same worst-band noise with the sun at
-    /// −1° and above, 0.8–0.96 times at −3° and −2°, 1.07–1.3 times at
-    /// −4.2° (where every band is about as noisy and gains from all the
-    /// paths); three groups cost a little more than two (README, "Spectral
-    /// groups").
+    /// −1° and above, 0.8–0.96 times at −3° and −2°. At −4.2° one group
+    /// was the cheaper until scattering directions were drawn in part
+    /// toward the sun's horizon (`tracer::sun_lobe`), which serves the
+    /// 480–760 nm bands far more than 320–360 nm: with it two groups cost
+    /// 0.57–0.69 times one (`bench --grid` tasks at −4.2°, 20 km visibility,
+    /// README "Spectral groups").
     pub fn spectral_groups(&self, task: &Task) -> Vec<Vec<usize>> {
         let n = self.wavelengths_nm.len();
         let ln_tau: Vec<f64> = (0..n)
@@ -46,14 +48,9 @@ impl Job {
             .collect();
         let hi = ln_tau.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let lo = ln_tau.iter().copied().fold(f64::INFINITY, f64::min);
-        let elevation = 90.0 - task.sun.zenith_deg;
         let count = match self.render.spectral_groups {
             SpectralGroups::Count(k) => k,
-            SpectralGroups::Auto
-                if elevation >= AUTO_GROUPS_MIN_ELEVATION_DEG && hi - lo >= AUTO_GROUPS_MIN_SPREAD.ln() =>
-            {
-                2
-            }
+            SpectralGroups::Auto if hi - lo >= AUTO_GROUPS_MIN_SPREAD.ln() => 2,
             SpectralGroups::Auto => 1,
         }
         .clamp(1, n.max(1));

@@ -42,7 +42,10 @@
 //! path's frame rotated into it. The new direction comes from one channel's
 //! phase function (picked uniformly) and one component (σ_i/σ_s); every
 //! channel's weight is its matrix over the mean of the channels' P11
-//! (one-sample MIS over channels and components).
+//! (one-sample MIS over channels and components). With the sun set
+//! (sun-aware connections, spherical geometry) 3 directions in 10 come
+//! from a lobe toward the sun's horizon instead (`sun_lobe`), and the
+//! weight's denominator is the mixture of both densities.
 //!
 //! **Sun connections** (next-event estimation) at every scattering and
 //! ground vertex, or along the whole flight instead: K stratified points
@@ -91,9 +94,11 @@ mod residual;
 mod scene;
 mod spectra;
 mod sun_connection;
+mod sun_lobe;
 mod trace;
 mod tracking;
 mod vertex;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};
+pub use sun_lobe::{SUN_LOBE_ELEVATION_DEG, SUN_LOBE_G, SUN_LOBE_SHARE};
 pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};

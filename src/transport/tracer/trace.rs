@@ -7,13 +7,15 @@ use std::f64::consts::FRAC_1_PI;
 use glam::DVec3;
 
 use crate::geometry::ray::{Ray, WalkEnd};
+use crate::geometry::shell::Geometry;
 use crate::job::options::MAX_ALBEDOS;
-use crate::polarization::stokes::{Mueller, Stokes};
+use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
+use super::sun_lobe::{SUN_LOBE_SHARE, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
@@ -152,23 +154,41 @@ impl Scene {
                     // densities.
                     // (`path.mixtures` holds every channel's mixture at the
                     // collision.)
+                    // With a low sun, in part from the lobe toward the
+                    // sun's horizon instead (`sun_lobe`).
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
                     let tables = self.phase_tables();
-                    let k_in = path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables);
+                    let lobe = self.sun_lobe(x);
+                    let from_lobe = lobe.is_some() && sampler.next_f64() < SUN_LOBE_SHARE;
+                    let k_in = match lobe {
+                        Some(lobe) if from_lobe => -lobe.sample(sampler.next2()),
+                        _ => path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables),
+                    };
                     let at = tables.locate(k_in.dot(k_out));
                     path.matrices.clear();
                     path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(&at)));
                     if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
                         branch.branch_from(path);
                         branch.halve();
-                        if let Some(next) = self.scattered(branch, quarter_turn(k_out, k_in), k_out, x, layer, sampler)
-                        {
+                        let k_branch = match lobe {
+                            Some(lobe) if from_lobe => {
+                                let k = -lobe.sample(sampler.next2());
+                                let at = tables.locate(k.dot(k_out));
+                                branch.matrices.clear();
+                                branch.matrices.extend(path.mixtures.iter().map(|m| m.matrix(&at)));
+                                k
+                            }
+                            _ => quarter_turn(k_out, k_in),
+                        };
+                        let inv_density = direction_weight(&branch.matrices, lobe, -k_branch);
+                        if let Some(next) = self.scattered(branch, k_branch, k_out, x, layer, inv_density, sampler) {
                             self.trace(branch, spectra, next, sampler, None);
                         }
                         std::mem::swap(&mut path.radiance, &mut branch.radiance);
                         path.halve();
                     }
-                    match self.scattered(path, k_in, k_out, x, layer, sampler) {
+                    let inv_density = direction_weight(&path.matrices, lobe, -k_in);
+                    match self.scattered(path, k_in, k_out, x, layer, inv_density, sampler) {
                         Some(next) => ray = next,
                         None => return,
                     }
@@ -179,8 +199,10 @@ impl Scene {
 
     /// Scatters the path at `x` (in `layer`) from light along k_in into
     /// k_out with every wavelength's matrix at the last collision
-    /// (`path.matrices`); the ray it goes on along, or `None` when roulette
-    /// ends it.
+    /// (`path.matrices`) over the direction's density (`inv_density`:
+    /// 1/(4π × density), [`direction_weight`]); the ray it goes on along,
+    /// or `None` when roulette ends it.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn scattered(
         &self,
         path: &mut Path,
@@ -188,9 +210,9 @@ impl Scene {
         k_out: DVec3,
         x: DVec3,
         layer: usize,
+        inv_mean_p11: f64,
         sampler: &mut Sampler,
     ) -> Option<Ray> {
-        let inv_mean_p11 = path.matrices.len() as f64 / path.matrices.iter().map(|m| m.p11).sum::<f64>();
         let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
         for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
             *t = if self.settings.polarized {
@@ -208,6 +230,14 @@ impl Scene {
             dir: -k_in,
             layer,
         })
+    }
+
+    /// The lobe toward the sun's horizon at a scattering vertex `x`: with
+    /// sun-aware connections in spherical geometry and the sun below the
+    /// observer's horizon, else none (`sun_lobe`).
+    fn sun_lobe(&self, x: DVec3) -> Option<SunLobe> {
+        (self.sun_follow.is_some() && self.sun.zenith_deg > 90.0 && matches!(self.geometry, Geometry::Spherical { .. }))
+            .then(|| SunLobe::new(self.geometry.up(x), self.sun.direction))
     }
 
     /// A ground vertex at `x` and the rest of the path from it (unsplit).
@@ -266,5 +296,17 @@ impl Scene {
             return false;
         }
         path.roulette(sampler)
+    }
+}
+
+/// 1/(4π × the density) of the scattering direction whose propagation
+/// direction is `d` and whose channels' matrices are `matrices`: the mean
+/// of the channels' P11 (each channel's phase function picked alike), or
+/// with a sun lobe the mixture of that and the lobe.
+fn direction_weight(matrices: &[PhaseMatrix], lobe: Option<SunLobe>, d: DVec3) -> f64 {
+    let sum = matrices.iter().map(|m| m.p11).sum::<f64>();
+    match lobe {
+        None => matrices.len() as f64 / sum,
+        Some(lobe) => lobe.inverse_mixture(sum / matrices.len() as f64, d),
     }
 }
