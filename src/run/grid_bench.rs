@@ -17,9 +17,9 @@
 //! understated the cost (0.2 with a pilot of 16, this benchmark until
 //! 2026-11-26: 157 / 889 core-hours per task where this one measures
 //! 429 / 2534 with the same build; README, "Noise targets"). Per task it
-//! reports the core-seconds (wall time × the pool's threads) of the pilot and of the
-//! allocated samples, the mean paths per traced pixel (over every spectral
-//! group), and per band the median and 99th percentile over the traced
+//! reports the core-seconds (wall time × the pool's threads) of the pilot
+//! and of the allocated samples, the mean paths per traced pixel (over
+//! every spectral group), and per band the median and 99th percentile over the traced
 //! pixels (not those that share the ground view) of the relative standard
 //! error of I (the worst over the albedos above 0). Scaled to the noise target
 //! (median ≤ 0.5 %, 99th percentile ≤ 2 % in every band and albedo above

@@ -9,6 +9,8 @@ use glam::DVec3;
 use crate::geometry::ray::{Ray, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::job::options::MAX_ALBEDOS;
+use crate::polarization::phase_mixture::PhaseMixture;
+use crate::polarization::phase_table_set::PhaseTableSet;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 
@@ -154,7 +156,7 @@ impl Scene {
                     // densities.
                     // (`path.mixtures` holds every channel's mixture at the
                     // collision.)
-                    // With a low sun, in part from the lobe toward the
+                    // With the sun set, in part from the lobe toward the
                     // sun's horizon instead (`sun_lobe`).
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
                     let tables = self.phase_tables();
@@ -164,18 +166,14 @@ impl Scene {
                         Some(lobe) if from_lobe => -lobe.sample(sampler.next2()),
                         _ => path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables),
                     };
-                    let at = tables.locate(k_in.dot(k_out));
-                    path.matrices.clear();
-                    path.matrices.extend(path.mixtures.iter().map(|m| m.matrix(&at)));
+                    matrices_at(&mut path.matrices, &path.mixtures, tables, k_in.dot(k_out));
                     if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
                         branch.branch_from(path);
                         branch.halve();
                         let k_branch = match lobe {
                             Some(lobe) if from_lobe => {
                                 let k = -lobe.sample(sampler.next2());
-                                let at = tables.locate(k.dot(k_out));
-                                branch.matrices.clear();
-                                branch.matrices.extend(path.mixtures.iter().map(|m| m.matrix(&at)));
+                                matrices_at(&mut branch.matrices, &path.mixtures, tables, k.dot(k_out));
                                 k
                             }
                             _ => quarter_turn(k_out, k_in),
@@ -210,15 +208,15 @@ impl Scene {
         k_out: DVec3,
         x: DVec3,
         layer: usize,
-        inv_mean_p11: f64,
+        inv_density: f64,
         sampler: &mut Sampler,
     ) -> Option<Ray> {
         let (rotation, e1_in) = scattering_frame(path.frame_e1, k_in, k_out);
         for (t, m) in path.throughput.iter_mut().zip(&path.matrices) {
             *t = if self.settings.polarized {
-                rotation.right_of_then(t, &m.scaled(inv_mean_p11))
+                rotation.right_of_then(t, &m.scaled(inv_density))
             } else {
-                *t * Mueller::depolarizer(m.p11 * inv_mean_p11)
+                *t * Mueller::depolarizer(m.p11 * inv_density)
             };
         }
         path.frame_e1 = e1_in;
@@ -309,4 +307,12 @@ fn direction_weight(matrices: &[PhaseMatrix], lobe: Option<SunLobe>, d: DVec3) -
         None => matrices.len() as f64 / sum,
         Some(lobe) => lobe.inverse_mixture(sum / matrices.len() as f64, d),
     }
+}
+
+/// Every channel's phase matrix at scattering-angle cosine `cos` from its
+/// mixture, into `matrices`.
+fn matrices_at(matrices: &mut Vec<PhaseMatrix>, mixtures: &[PhaseMixture], tables: &PhaseTableSet, cos: f64) {
+    let at = tables.locate(cos);
+    matrices.clear();
+    matrices.extend(mixtures.iter().map(|m| m.matrix(&at)));
 }
