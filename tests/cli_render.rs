@@ -211,6 +211,16 @@ fn bad_band_widths_are_refused_naming_the_key_and_range() {
             "band_width_nm",
         ),
         (
+            "[render]\nroulette_threshold = 0.0\n",
+            "render.roulette_threshold",
+            "above 0 and at most 1",
+        ),
+        (
+            "[render]\nroulette_threshold = 1.5\n",
+            "render.roulette_threshold",
+            "above 0 and at most 1",
+        ),
+        (
             "[render]\nspectral_groups = 0\n",
             "render.spectral_groups",
             "whole number of groups from 1",

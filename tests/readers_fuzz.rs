@@ -582,6 +582,7 @@ const SECTIONS: &[(&str, &[(&str, Kind)])] = &[
             ("sun_samples_per_flight", Int(0, 4)),
             ("sun_sampling", Word(SUN_SAMPLING)),
             ("first_vertex_splitting", Bool),
+            ("roulette_threshold", Num(0.0, 1.5)),
             ("shared_wavelengths", Bool),
             ("spectral_groups", Int(0, 4)),
         ],

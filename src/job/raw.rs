@@ -234,6 +234,7 @@ pub(super) struct RawRender {
     pub(super) majorant_scale: Option<f64>,
     pub(super) forced_collisions: Option<bool>,
     pub(super) sun_samples_per_flight: Option<u32>,
+    pub(super) roulette_threshold: Option<f64>,
     pub(super) sun_sampling: Option<RawSunSampling>,
     pub(super) first_vertex_splitting: Option<bool>,
     pub(super) shared_wavelengths: Option<bool>,

@@ -11,7 +11,9 @@ use super::raw::{
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
-use crate::job::options::{MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance, TrackingLayers};
+use crate::job::options::{
+    DEFAULT_ROULETTE_THRESHOLD, MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance, TrackingLayers,
+};
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
@@ -233,6 +235,14 @@ pub(super) fn resolve(
         0 => return Err(ctx.invalid("render.sun_samples_per_flight", 0, "no sun connections", "1 or more")),
         k => k,
     };
+    let roulette_threshold = ctx.range(
+        "render.roulette_threshold",
+        render.roulette_threshold.unwrap_or(DEFAULT_ROULETTE_THRESHOLD),
+        0.0,
+        1.0,
+        true,
+        "above 0 and at most 1 (default 0.03)",
+    )?;
     let sun_transmittance = match render.sun_transmittance.unwrap_or(RawSunTransmittance::Analytic) {
         RawSunTransmittance::Analytic => SunTransmittance::Analytic,
         RawSunTransmittance::RatioTracking => SunTransmittance::RatioTracking,
@@ -288,6 +298,7 @@ pub(super) fn resolve(
                 RawSunSampling::Collision => SunSampling::Collision,
             },
             first_vertex_splitting: render.first_vertex_splitting.unwrap_or(true),
+            roulette_threshold,
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {
             RawMedium::Layered => MediumModel::Layered,

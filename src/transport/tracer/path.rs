@@ -17,7 +17,6 @@ use crate::transport::flight_density::FlightDensity;
 use crate::transport::sun_depth::SunDepth;
 
 use super::spectra::ChannelSpectra;
-use super::vertex::ROULETTE_THRESHOLD;
 
 /// A path's state; its per-wavelength vectors are reused from sample to
 /// sample on each thread ([`WORK`]).
@@ -219,15 +218,16 @@ impl Path {
 
     /// Russian roulette on the mean effective T₀₀ over the wavelengths (the
     /// largest kept paths alive as long as 320 nm needed: 1.5× the cost
-    /// for a larger error at 320 nm at equal time).
+    /// for a larger error at 320 nm at equal time) below `threshold`
+    /// ([`Settings::roulette_threshold`](crate::job::options::Settings::roulette_threshold)).
     #[inline]
-    pub(super) fn roulette(&mut self, sampler: &mut Sampler) -> bool {
+    pub(super) fn roulette(&mut self, threshold: f64, sampler: &mut Sampler) -> bool {
         let mean = self.throughput.iter().map(|t| t.0[0][0]).sum::<f64>() / self.throughput.len() as f64;
         let w = mean * self.inv_mean_density;
-        if self.order < 2 || w >= ROULETTE_THRESHOLD {
+        if self.order < 2 || w >= threshold {
             return w > 0.0;
         }
-        let q = w / ROULETTE_THRESHOLD;
+        let q = w / threshold;
         if sampler.next_f64() >= q {
             return false;
         }

@@ -220,7 +220,7 @@ impl Scene {
             };
         }
         path.frame_e1 = e1_in;
-        if !path.roulette(sampler) {
+        if !path.roulette(self.settings.roulette_threshold, sampler) {
             return None;
         }
         Some(Ray {
@@ -293,7 +293,7 @@ impl Scene {
         if self.order_done(path.order) {
             return false;
         }
-        path.roulette(sampler)
+        path.roulette(self.settings.roulette_threshold, sampler)
     }
 }
 

@@ -16,9 +16,6 @@ use crate::polarization::stokes::StokesRotation;
 
 pub(crate) const INV_4PI: f64 = 0.25 * FRAC_1_PI;
 
-/// Throughput below which Russian roulette starts.
-pub(crate) const ROULETTE_THRESHOLD: f64 = 0.1;
-
 /// The geometry and ray along which the direct beam toward `ray.origin`
 /// is attenuated: the ray itself, or in pseudo-spherical geometry (a
 /// plane-parallel `geometry` with a planet radius) the same direction from
