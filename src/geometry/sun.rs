@@ -36,6 +36,20 @@ impl Sun {
         self.direction.z
     }
 
+    /// Whether a point sun is hidden from `x` by a planet of radius
+    /// `radius_km` centred at the origin: `x` lies in the half-cylinder of
+    /// that radius behind the planet (a margin of 10⁻⁹ of the radius² keeps
+    /// grazing rays out). The half-cylinder is convex, so a segment whose
+    /// ends are both in it lies in it. Always false for a disc, whose
+    /// umbra is narrower.
+    pub fn hidden_by_planet(&self, radius_km: f64, x: DVec3) -> bool {
+        if self.angular_radius != 0.0 {
+            return false;
+        }
+        let along = x.dot(self.direction);
+        along < 0.0 && x.length_squared() - along * along < radius_km * radius_km * (1.0 - 1e-9)
+    }
+
     /// A direction toward the sun: the centre for a point sun, else uniform
     /// in solid angle over the disc.
     pub fn sample_direction(&self, u: [f64; 2]) -> DVec3 {
@@ -64,6 +78,28 @@ mod tests {
         assert!((s.mu0() - 0.5).abs() < 1e-15);
         let below = Sun::new(94.2, 0.0);
         assert!(below.direction.z < 0.0);
+    }
+
+    #[test]
+    fn the_planet_hides_the_sun_behind_it_and_nowhere_else() {
+        // Sun 4.2° below the horizon of an observer on a 6378 km planet:
+        // the observer is in the shadow, the air 30 km above is lit
+        // (the shadow reaches up to R/cos 4.2° − R = 17.2 km there).
+        let r = 6378.0;
+        let s = Sun::new(94.2, 0.0);
+        let up = |h: f64| DVec3::new(0.0, 0.0, r + h);
+        assert!(s.hidden_by_planet(r, up(0.0)));
+        assert!(s.hidden_by_planet(r, up(17.0)));
+        assert!(!s.hidden_by_planet(r, up(17.4)));
+        assert!(!s.hidden_by_planet(r, up(30.0)));
+        // Toward the sun (x > 0) it rises out of the shadow; away from it
+        // the shadow deepens.
+        assert!(!s.hidden_by_planet(r, DVec3::new(500.0, 0.0, r)));
+        assert!(s.hidden_by_planet(r, DVec3::new(-500.0, 0.0, r + 40.0)));
+        // The sun above the horizon: nothing on the day side is hidden.
+        assert!(!Sun::new(60.0, 0.0).hidden_by_planet(r, up(0.0)));
+        // A disc is never taken as hidden (its umbra is narrower).
+        assert!(!Sun::new(94.2, 0.2666).hidden_by_planet(r, up(0.0)));
     }
 
     #[test]

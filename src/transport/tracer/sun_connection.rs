@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use crate::geometry::ray::{Ray, Segment};
+use crate::geometry::ray::{Ray, Segment, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
@@ -31,6 +31,11 @@ impl Scene {
         q: f64,
         sampler: &mut Sampler,
     ) {
+        let x = ray.origin + t * ray.dir;
+        if self.hidden_from_sun(x) {
+            // In the planet's shadow: it scores nothing.
+            return;
+        }
         let b = self.basis_len;
         let seg = path.segments[i];
         // Every channel's depth along the flight to the point.
@@ -43,7 +48,6 @@ impl Scene {
         path.factors.clear();
         // The optics of the profile's layer there, and the residual's
         // factor on the way, through merged layers (`tracking`).
-        let x = ray.origin + t * ray.dir;
         let l = self.profile_layer(seg.layer, x);
         for w in 0..self.channels.len() {
             let c = self.coefficients(spectra, l, w, 0.0);
@@ -177,6 +181,35 @@ impl Scene {
         };
         self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
         true
+    }
+
+    /// Whether a sun-aware connection along the flight along `ray` to `end`
+    /// would score nothing because the planet hides a point sun from all of
+    /// it (both ends in its shadow, [`Sun::hidden_by_planet`]): no point of
+    /// it sees the sun, and neither does its collision. Saves the flight's
+    /// density and connection at twilight; false without sun-aware
+    /// connections (their absence keeps the day's random streams as they
+    /// were).
+    ///
+    /// [`Sun::hidden_by_planet`]: crate::geometry::sun::Sun::hidden_by_planet
+    pub(super) fn flight_hidden_from_sun(&self, ray: &Ray, end: WalkEnd) -> bool {
+        let (Some(_), Geometry::Spherical { radius_km }) = (&self.sun_follow, self.geometry) else {
+            return false;
+        };
+        let t = match end {
+            WalkEnd::Ground { t } | WalkEnd::Top { t } => t,
+            WalkEnd::Endless | WalkEnd::Stopped => return false,
+        };
+        self.sun.hidden_by_planet(radius_km, ray.origin)
+            && self.sun.hidden_by_planet(radius_km, ray.origin + t * ray.dir)
+    }
+
+    /// Whether the planet hides a point sun from `x` (spherical geometry).
+    fn hidden_from_sun(&self, x: DVec3) -> bool {
+        match self.geometry {
+            Geometry::Spherical { radius_km } => self.sun.hidden_by_planet(radius_km, x),
+            Geometry::PlaneParallel => false,
+        }
     }
 
     /// Every channel's transmittance toward the sun from `x` (in `layer`)

@@ -114,7 +114,8 @@ impl Scene {
             // stratified on a forced flight), with the throughput and
             // densities before its collision.
             let sun_done = !self.order_done(path.order)
-                && (self.sun_along_flight(path, spectra, &ray, sampler)
+                && (self.flight_hidden_from_sun(&ray, end)
+                    || self.sun_along_flight(path, spectra, &ray, sampler)
                     || (forced_flight
                         && self.settings.sun_samples_per_flight > 1
                         && self.sun_stratified(path, spectra, &ray, sampler)));
