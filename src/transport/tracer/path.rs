@@ -110,6 +110,10 @@ pub(super) struct SunFollow {
     pub(super) channels: Vec<usize>,
     /// Their coefficients per layer (`[layer·K + k]`).
     pub(super) coefficients: Vec<PointOptics>,
+    /// The largest column extinction of the scene's channels, at their
+    /// centre wavelengths (whether the sun lobe serves them with the sun
+    /// up, `sun_lobe`).
+    pub(super) max_column: f64,
 }
 
 /// A thread's reusable state: the path, the spare the path's first vertex

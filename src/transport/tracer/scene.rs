@@ -277,6 +277,7 @@ impl Scene {
             depth,
             channels: followed.iter().map(|f| f.1).collect(),
             coefficients,
+            max_column: centre[n - 1].0,
         });
         self
     }

@@ -1,6 +1,7 @@
 //! Scattering directions drawn in part toward the sun's horizon, for a set
-//! sun (below the observer's horizon, with sun-aware connections, in
-//! spherical geometry).
+//! or low sun (below the observer's horizon, or less than 10° above it for
+//! channels of little extinction; with sun-aware connections, in spherical
+//! geometry).
 //!
 //! With the sun low or set, much of the light reaching a vertex arrives
 //! along long, nearly horizontal paths toward the sun's azimuth: sunlit air
@@ -23,11 +24,13 @@
 //! weighs the direction by its matrix over the mixture of both densities
 //! (one-sample MIS, balance heuristic), so no weight exceeds 1/(1 −
 //! share) times that of the phase functions alone and the estimate stays
-//! unbiased. With the sun up it is not used: on the sky model grid's
-//! benchmark (20 km visibility) the lobe made the sun-at-2° tasks 1.23
-//! (ground) and 0.94 (15 km) times as dear, their worst band (320–360 nm,
-//! whose long horizontal paths are opaque) gaining nothing, and the
-//! sun-at-−1° ones 1.01 and 0.79 times (README, "Sun connections at
+//! unbiased. With the sun up it serves only channels of little column
+//! extinction ([`SUN_LOBE_SUN_UP_MAX_COLUMN`]) below
+//! [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]: for all eleven bands of the sky
+//! model grid it made the benchmark's sun-at-2° tasks (20 km visibility)
+//! 1.23 (ground) and 0.94 (15 km) times as dear, their worst band then
+//! (320–360 nm, whose long horizontal paths are opaque) gaining nothing,
+//! while the 480–760 nm group alone gains (README, "Sun connections at
 //! twilight"). Where the sensor's first vertex is split, both branches come
 //! from the lobe together (independently) or from the phase functions
 //! together (the second a quarter turn of the first): each branch's
@@ -45,6 +48,26 @@ pub const SUN_LOBE_G: f64 = 0.8;
 
 /// The lobe axis's elevation above the local horizon (°).
 pub const SUN_LOBE_ELEVATION_DEG: f64 = 5.0;
+
+/// With the sun up, the lobe serves only a scene whose channels' column
+/// extinctions (at their centre wavelengths) are all at most this, and
+/// only below [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]. On directions jobs in
+/// the sky model grid's atmosphere (20 km visibility, roulette from 0.03,
+/// time × the worst band's variance per path) the group of 480–760 nm
+/// (column extinction 0.27–0.57) cost about half with it at 2° (ground 8.6
+/// against 16.8, 15 km 1.4 against 1.7), and the group of 320–480 nm (up
+/// to 1.37, 320–360 nm) 1.8 times more from the ground (24.2 against
+/// 13.7), its long horizontal paths opaque (README, "Sun connections at
+/// twilight"). 0.7 lies between the largest column extinction of the
+/// 480–760 nm group at 20 km visibility (0.57, 480–520 nm) and that of the
+/// 320–480 nm group at 131.8 km (0.81, 320–360 nm), the grid's extremes.
+pub const SUN_LOBE_SUN_UP_MAX_COLUMN: f64 = 0.7;
+
+/// With the sun up, the lobe is used only below this elevation (°), where
+/// sun-aware connections are (`SunSampling::Auto`): a 500 nm band gained
+/// from it at 2° and 10° (variance per path 0.336 → 0.278, 0.572 → 0.503)
+/// and lost at 45° (0.156 → 0.180).
+pub const SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG: f64 = 10.0;
 
 /// The lobe at one vertex.
 #[derive(Debug, Clone, Copy)]

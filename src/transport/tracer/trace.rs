@@ -17,7 +17,7 @@ use crate::sampling::sampler::Sampler;
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::sun_lobe::{SUN_LOBE_SHARE, SunLobe};
+use super::sun_lobe::{SUN_LOBE_SHARE, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
@@ -232,10 +232,16 @@ impl Scene {
     }
 
     /// The lobe toward the sun's horizon at a scattering vertex `x`: with
-    /// sun-aware connections in spherical geometry and the sun below the
-    /// observer's horizon, else none (`sun_lobe`).
+    /// sun-aware connections in spherical geometry, and the sun below the
+    /// observer's horizon, or less than [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]
+    /// above it for channels whose column extinction is at most
+    /// [`SUN_LOBE_SUN_UP_MAX_COLUMN`]; else none (`sun_lobe`).
     fn sun_lobe(&self, x: DVec3) -> Option<SunLobe> {
-        (self.sun_follow.is_some() && self.sun.zenith_deg > 90.0 && matches!(self.geometry, Geometry::Spherical { .. }))
+        let follow = self.sun_follow.as_ref()?;
+        let elevation = 90.0 - self.sun.zenith_deg;
+        let used = elevation < 0.0
+            || (elevation < SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG && follow.max_column <= SUN_LOBE_SUN_UP_MAX_COLUMN);
+        (used && matches!(self.geometry, Geometry::Spherical { .. }))
             .then(|| SunLobe::new(self.geometry.up(x), self.sun.direction))
     }
 
