@@ -11,17 +11,22 @@ use atmosim::sampling::stream::Render;
 use atmosim::sensor::direction::Direction;
 use common::{Comparison, directions, job, layers_toml};
 
+/// The fluxes at the top of a conservative slab of optical depth `tau`
+/// (1 km thick) over a white ground, sun at `sza`, with `render` keys.
+fn conservative_slab_fluxes(tau: f64, sza: f64, render: &str) -> atmosim::film::fluxes::Fluxes {
+    let text = format!(
+        "{}[ground]\nalbedo = 1.0\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n[render]\n{render}",
+        layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.03)
+    );
+    render_fluxes(&job(&text).scene(0), 1.0, 100_000, 1, Render::channel(0, 0))
+}
+
 #[test]
 fn conservative_slab_over_white_ground_reflects_all_incident_flux() {
     // ω = 1, albedo 1: everything that enters leaves through the top, so the
     // upward flux at the top equals μ0·E0.
     for (tau, sza) in [(0.5, 30.0f64), (2.0, 60.0)] {
-        let text = format!(
-            "{}[ground]\nalbedo = 1.0\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n",
-            layers_toml(&[(0.0, 1.0, tau, 0.0)], 0.03)
-        );
-        let j = job(&text);
-        let f = render_fluxes(&j.scene(0), 1.0, 100_000, 1, Render::channel(0, 0));
+        let f = conservative_slab_fluxes(tau, sza, "");
         let mu0 = sza.to_radians().cos();
         assert!(
             (f.e_up - mu0).abs() < 4.0 * f.e_up_se,
@@ -45,13 +50,7 @@ fn russian_roulette_leaves_the_conservative_slab_exact_at_any_threshold() {
     let sza: f64 = 60.0;
     let mu0 = sza.to_radians().cos();
     for threshold in [1.0, 0.001] {
-        let text = format!(
-            "{}[ground]\nalbedo = 1.0\n[sun]\nzenith_deg = {sza:?}\n[observer]\naltitude_km = 1.0\n\
-             [render]\nroulette_threshold = {threshold:?}\n",
-            layers_toml(&[(0.0, 1.0, 2.0, 0.0)], 0.03)
-        );
-        let j = job(&text);
-        let f = render_fluxes(&j.scene(0), 1.0, 100_000, 1, Render::channel(0, 0));
+        let f = conservative_slab_fluxes(2.0, sza, &format!("roulette_threshold = {threshold:?}\n"));
         assert!(
             (f.e_up - mu0).abs() < 4.0 * f.e_up_se,
             "threshold {threshold}: E_up {} ± {} vs μ0 {mu0}",

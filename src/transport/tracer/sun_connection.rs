@@ -193,15 +193,14 @@ impl Scene {
     ///
     /// [`Sun::hidden_by_planet`]: crate::geometry::sun::Sun::hidden_by_planet
     pub(super) fn flight_hidden_from_sun(&self, ray: &Ray, end: WalkEnd) -> bool {
-        let (Some(_), Geometry::Spherical { radius_km }) = (&self.sun_follow, self.geometry) else {
+        if self.sun_follow.is_none() {
             return false;
-        };
+        }
         let t = match end {
             WalkEnd::Ground { t } | WalkEnd::Top { t } => t,
             WalkEnd::Endless | WalkEnd::Stopped => return false,
         };
-        self.sun.hidden_by_planet(radius_km, ray.origin)
-            && self.sun.hidden_by_planet(radius_km, ray.origin + t * ray.dir)
+        self.hidden_from_sun(ray.origin) && self.hidden_from_sun(ray.origin + t * ray.dir)
     }
 
     /// Whether the planet hides a point sun from `x` (spherical geometry).
