@@ -123,7 +123,79 @@ fn bad_noise_target_keys_are_refused_by_name() {
             "noise_target = 0.01\nmax_samples = 100000000\n",
             vec!["render.max_samples", "16777216"],
         ),
+        (
+            "noise_target_albedos = \"above_zero\"\n",
+            vec!["render.noise_target_albedos", "render.noise_target"],
+        ),
+        // The job's only albedo is the default, 0.
+        (
+            "noise_target = 0.01\nnoise_target_albedos = \"above_zero\"\n",
+            vec!["render.noise_target_albedos", "no albedo above 0"],
+        ),
+        (
+            "noise_target = 0.01\nnoise_target_albedos = \"nonzero\"\n",
+            vec!["noise_target_albedos", "above_zero"],
+        ),
     ] {
         assert_refused("render", &format!("{base}{render}"), &words);
+    }
+}
+
+#[test]
+fn albedos_the_target_leaves_out_allocate_nothing_and_are_still_reported() {
+    // Seen from 5 km, looking down and up: the path radiance over a black
+    // ground (albedo 0) is a value of its own. With "above_zero" the same
+    // pilot (the same job but for the key) allocates the most the albedos
+    // above 0 need, so no pixel gets more than with every albedo counted.
+    let job = |albedos: &str| {
+        format!(
+            "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n[observer]\naltitude_km = 5.0\n\
+             [ground]\nalbedo = [0.0, 0.5]\n[sensor]\ntype = \"sphere\"\nresolution = 8\n\
+             [render]\nnoise_target = 0.05\npilot_samples = 16\nmax_samples = 3000\nnoise_target_albedos = \"{albedos}\"\n"
+        )
+    };
+    let render = |albedos: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        write_job(dir.path(), &job(albedos));
+        run_ok(
+            dir.path(),
+            &["render", "job.toml", "--out", "out", "-q", "--threads", "2"],
+        );
+        let task = files_under(&dir.path().join("out"))
+            .into_iter()
+            .find(|p| p.ends_with("image.exr"))
+            .unwrap()
+            .parent()
+            .unwrap()
+            .to_path_buf();
+        let samples = channel(&exr(&task.join("image.exr")), "samples").to_vec();
+        let noise = std::fs::read_to_string(task.join("noise.csv")).unwrap();
+        let meta = std::fs::read_to_string(task.join("task.toml")).unwrap();
+        (samples, noise, meta, dir)
+    };
+    let (all, noise_all, _, _d1) = render("all");
+    let (above, noise_above, meta, _d2) = render("above_zero");
+    assert_eq!(all.len(), above.len());
+    assert!(all.iter().zip(&above).all(|(a, b)| b <= a), "{all:?}\n{above:?}");
+    let (sum_all, sum_above) = (all.iter().sum::<f32>(), above.iter().sum::<f32>());
+    assert!(sum_above < sum_all, "{sum_above} against {sum_all}");
+    assert!(meta.contains("noise_target_albedos = \"above_zero\""), "{meta}");
+    // noise.csv: every (wavelength, albedo) reported, `targeted` 0 for
+    // albedo 0 alone; the targeted rows' median pixel meets the target.
+    for (noise, left_out) in [(noise_all, false), (noise_above, true)] {
+        let mut lines = noise.lines();
+        assert!(lines.next().unwrap().ends_with(",targeted"));
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 4);
+        for r in &rows {
+            let targeted = !(left_out && r[1] == 0.0);
+            assert_eq!(r[10], f64::from(u8::from(targeted)), "{r:?}");
+            assert!(r[2] > 100.0, "{r:?}");
+            if targeted {
+                assert!(r[3] <= 0.05, "median {r:?}");
+            }
+        }
     }
 }

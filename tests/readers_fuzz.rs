@@ -509,6 +509,7 @@ const SUN_TRANSMITTANCE: &[&str] = &["analytic", "ratio_tracking", "delta"];
 const SUN_SAMPLING: &[&str] = &["auto", "sun_aware", "collision", "never"];
 const TRACKING_LAYERS: &[&str] = &["auto", "profile", "merged", "fine"];
 const UNITS: &[&str] = &["normalized", "absolute", "photons"];
+const TARGET_ALBEDOS: &[&str] = &["all", "above_zero", "nonzero"];
 const DIRECTORIES: &[&str] = &["out", "o/p", "", "."];
 const ESTIMATORS: &[&str] = &["ratio_tracking", "residual_ratio_tracking", "analytic", "delta"];
 
@@ -571,6 +572,10 @@ const SECTIONS: &[(&str, &[(&str, Kind)])] = &[
         "render",
         &[
             ("samples", Int(0, 100_000)),
+            ("noise_target", Num(0.0, 1.5)),
+            ("pilot_samples", Int(0, 100)),
+            ("max_samples", Int(0, 100_000)),
+            ("noise_target_albedos", Word(TARGET_ALBEDOS)),
             ("seed", Int(0, 1000)),
             ("polarized", Bool),
             ("max_scattering_order", Int(0, 10)),

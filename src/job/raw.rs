@@ -225,6 +225,7 @@ pub(super) struct RawRender {
     pub(super) noise_target: Option<f64>,
     pub(super) pilot_samples: Option<u64>,
     pub(super) max_samples: Option<u64>,
+    pub(super) noise_target_albedos: Option<RawTargetAlbedos>,
     pub(super) seed: Option<u64>,
     pub(super) polarized: Option<bool>,
     pub(super) max_scattering_order: Option<u32>,
@@ -239,6 +240,14 @@ pub(super) struct RawRender {
     pub(super) first_vertex_splitting: Option<bool>,
     pub(super) shared_wavelengths: Option<bool>,
     pub(super) spectral_groups: Option<RawSpectralGroups>,
+}
+
+/// `noise_target_albedos`: which albedos a noise target counts.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawTargetAlbedos {
+    All,
+    AboveZero,
 }
 
 /// `spectral_groups = "auto"` or a whole number of groups.

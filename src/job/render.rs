@@ -7,7 +7,7 @@ use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
     RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance,
-    RawTrackingLayers, RawUnits,
+    RawTargetAlbedos, RawTrackingLayers, RawUnits,
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
@@ -38,7 +38,7 @@ pub const MAX_TARGET_SAMPLES: u64 = 1 << 24;
 
 /// A noise target (`render.noise_target`): each direction or pixel gets the
 /// samples its pilot says it needs for a relative standard error of I of
-/// `relative_se` in every channel and albedo, between `pilot` and
+/// `relative_se` in every channel and every albedo it counts, between `pilot` and
 /// `max_samples`. The pilot's own samples only set the allocation; the
 /// result is the mean of the allocated samples alone, so it stays
 /// unbiased (`crate::run::allocation`).
@@ -49,6 +49,46 @@ pub struct NoiseTarget {
     pub pilot: u64,
     /// Most samples allocated per direction or pixel.
     pub max_samples: u64,
+    /// The albedos whose noise sets the allocation.
+    pub albedos: TargetAlbedos,
+}
+
+/// Which albedos a noise target counts (`render.noise_target_albedos`;
+/// closed set). The others are rendered from the same paths, and their
+/// noise is reported, but it allocates no samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TargetAlbedos {
+    /// Every albedo (the default).
+    All,
+    /// The albedos above 0: the path radiance over a black ground, often
+    /// the noisiest value seen from above at twilight, only rides along.
+    AboveZero,
+}
+
+impl TargetAlbedos {
+    /// Whether the target counts albedo `albedo`.
+    pub fn counts(self, albedo: f64) -> bool {
+        match self {
+            TargetAlbedos::All => true,
+            TargetAlbedos::AboveZero => albedo > 0.0,
+        }
+    }
+
+    /// The albedos counted, in words (outputs' metadata).
+    pub fn describe(self) -> &'static str {
+        match self {
+            TargetAlbedos::All => "every albedo",
+            TargetAlbedos::AboveZero => "every albedo above 0",
+        }
+    }
+
+    /// The value of `render.noise_target_albedos`.
+    pub fn key_value(self) -> &'static str {
+        match self {
+            TargetAlbedos::All => "all",
+            TargetAlbedos::AboveZero => "above_zero",
+        }
+    }
 }
 
 /// What the sensor records.
@@ -198,7 +238,7 @@ pub(super) fn resolve(
     };
 
     let render = render.unwrap_or_default();
-    let target = resolve_target(ctx, &render)?;
+    let target = resolve_target(ctx, &render, &albedos)?;
     let samples = match target {
         Some(t) => t.max_samples,
         None => render.samples.unwrap_or(DEFAULT_SAMPLES),
@@ -319,17 +359,22 @@ pub(super) fn resolve(
 /// The noise target of `[render]`, if any: `noise_target` with its
 /// `pilot_samples` and `max_samples`, which mean nothing without it, as
 /// `samples` means nothing with it.
-fn resolve_target(ctx: &Ctx, render: &RawRender) -> Result<Option<NoiseTarget>> {
+fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Option<NoiseTarget>> {
     let Some(relative_se) = render.noise_target else {
+        let albedos_key = render.noise_target_albedos.map(|a| match a {
+            RawTargetAlbedos::All => "all".to_string(),
+            RawTargetAlbedos::AboveZero => "above_zero".to_string(),
+        });
         for (key, given) in [
-            ("render.pilot_samples", render.pilot_samples),
-            ("render.max_samples", render.max_samples),
+            ("render.pilot_samples", render.pilot_samples.map(|v| v.to_string())),
+            ("render.max_samples", render.max_samples.map(|v| v.to_string())),
+            ("render.noise_target_albedos", albedos_key),
         ] {
             if let Some(v) = given {
                 return Err(ctx.invalid(
                     key,
                     v,
-                    "only a noise target has pilot and maximum samples",
+                    "only a noise target has pilot and maximum samples and albedos it counts",
                     "set render.noise_target too, or leave the key out (render.samples is the fixed count)",
                 ));
             }
@@ -383,10 +428,23 @@ fn resolve_target(ctx: &Ctx, render: &RawRender) -> Result<Option<NoiseTarget>> 
             &format!("at least {pilot}"),
         ));
     }
+    let counted = match render.noise_target_albedos.unwrap_or(RawTargetAlbedos::All) {
+        RawTargetAlbedos::All => TargetAlbedos::All,
+        RawTargetAlbedos::AboveZero => TargetAlbedos::AboveZero,
+    };
+    if !albedos.iter().any(|&a| counted.counts(a)) {
+        return Err(ctx.invalid(
+            "render.noise_target_albedos",
+            "above_zero",
+            "ground.albedo has no albedo above 0, so the target would count nothing",
+            "\"all\" (the default), or an albedo above 0 in ground.albedo",
+        ));
+    }
     Ok(Some(NoiseTarget {
         relative_se,
         pilot,
         max_samples,
+        albedos: counted,
     }))
 }
 

@@ -1,6 +1,6 @@
 //! A noise target's allocation: from the pilot's sums of a direction, flux
 //! or pixel, the samples it needs for the target relative standard error of
-//! I in every channel and albedo.
+//! I in every channel and every albedo the target counts.
 //!
 //! Two stages keep the estimate unbiased. The pilot's samples (streams of
 //! their own, [`crate::sampling::stream::Estimate::pilot`]) only decide how
@@ -13,8 +13,9 @@
 //!
 //! The allocation of a value with per-sample variance σ² and mean μ is
 //! σ²/(μ²t²) samples; a direction or pixel takes the most any of its
-//! channels and albedos needs (values whose pilot mean is 0, such as the
-//! ground at albedo 0 seen from the ground, are left out). An image pixel
+//! channels and counted albedos needs (values whose pilot mean is 0, such
+//! as the ground at albedo 0 seen from the ground, are left out, and so
+//! are albedos the target does not count: `render.noise_target_albedos`). An image pixel
 //! takes the mean need of itself and its eight neighbours: a pilot of a few
 //! dozen samples is a noisy estimate of σ² (it often misses the rare bright
 //! paths of a pixel near the sun or the horizon that a neighbour catches),
@@ -38,11 +39,16 @@ pub enum Allocation {
 }
 
 /// Samples a direction or pixel needs, from its pilot's tallies (one per
-/// value): the most over the values of σ²/(μ²t²), as a real number; 0 when
-/// no value has a mean.
-pub fn needed(tallies: &[Tally], relative_se: f64) -> f64 {
+/// value, the albedos varying fastest): the most over the values of
+/// σ²/(μ²t²) whose albedo `counted` holds (one flag per albedo), as a real
+/// number; 0 when no such value has a mean.
+pub fn needed(tallies: &[Tally], relative_se: f64, counted: &[bool]) -> f64 {
+    let na = counted.len().max(1);
     tallies
         .iter()
+        .enumerate()
+        .filter(|(v, _)| counted.get(v % na).copied().unwrap_or(true))
+        .map(|(_, t)| t)
         .filter(|t| t.samples > t.non_finite + 1)
         .filter_map(|t| {
             let n = (t.samples - t.non_finite) as f64;
@@ -75,20 +81,20 @@ pub fn ground_view(target: &NoiseTarget) -> NoiseTarget {
 }
 
 /// The allocation of a direction or flux from its pilot's tallies.
-pub fn single(tallies: &[Tally], target: &NoiseTarget) -> u64 {
-    clamp(needed(tallies, target.relative_se), target)
+pub fn single(tallies: &[Tally], target: &NoiseTarget, counted: &[bool]) -> u64 {
+    clamp(needed(tallies, target.relative_se, counted), target)
 }
 
 /// The allocation of an image of `width` pixels a row from its pilot's
 /// tallies (`values` per pixel, pixel-major): each traced pixel takes the
 /// mean of what it and its traced neighbours need; untraced pixels (no
 /// pilot samples) get none.
-pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarget) -> Vec<u64> {
+pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarget, counted: &[bool]) -> Vec<u64> {
     let values = values.max(1);
     let count = tallies.len() / values;
     let traced: Vec<bool> = (0..count).map(|p| tallies[p * values].samples > 0).collect();
     let need: Vec<f64> = (0..count)
-        .map(|p| needed(&tallies[p * values..(p + 1) * values], target.relative_se))
+        .map(|p| needed(&tallies[p * values..(p + 1) * values], target.relative_se, counted))
         .collect();
     let width = width.max(1);
     let height = count / width;
@@ -127,26 +133,28 @@ mod tests {
         relative_se: 0.1,
         pilot: 4,
         max_samples: 1000,
+        albedos: crate::job::TargetAlbedos::All,
     };
+    const ALL: &[bool] = &[true];
 
     #[test]
     fn the_need_is_the_relative_variance_over_the_target_squared() {
         // Mean 2, sample variance 16/3 (values 0, 4, 0, 4): (4/3) / 0.01.
         let t = tally(&[0.0, 4.0, 0.0, 4.0]);
-        assert!((needed(&[t], 0.1) - 133.333_333_333_333_3).abs() < 1e-9);
+        assert!((needed(&[t], 0.1, ALL) - 133.333_333_333_333_3).abs() < 1e-9);
         // The worst value sets the need; a zero mean is left out.
         let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
         let zero = tally(&[0.0; 4]);
-        assert!((needed(&[flat, t, zero], 0.1) - needed(&[t], 0.1)).abs() < 1e-12);
-        assert_eq!(needed(&[zero], 0.1), 0.0);
-        assert_eq!(single(&[t], &TARGET), 134);
-        assert_eq!(single(&[flat], &TARGET), 4);
+        assert!((needed(&[flat, t, zero], 0.1, ALL) - needed(&[t], 0.1, ALL)).abs() < 1e-12);
+        assert_eq!(needed(&[zero], 0.1, ALL), 0.0);
+        assert_eq!(single(&[t], &TARGET, ALL), 134);
+        assert_eq!(single(&[flat], &TARGET, ALL), 4);
         // One bright sample in four: σ²/μ² = 4, to 1 %: 40,000, capped.
         let tight = NoiseTarget {
             relative_se: 0.01,
             ..TARGET
         };
-        assert_eq!(single(&[tally(&[0.0, 0.0, 0.0, 1e6])], &tight), 1000);
+        assert_eq!(single(&[tally(&[0.0, 0.0, 0.0, 1e6])], &tight, ALL), 1000);
     }
 
     #[test]
@@ -163,7 +171,26 @@ mod tests {
         t[5] = noisy;
         t[11] = Tally::default();
         let target = NoiseTarget { pilot: 16, ..TARGET };
-        let n = pixels(&t, 1, 4, &target);
+        let n = pixels(&t, 1, 4, &target, ALL);
         assert_eq!(n, vec![34, 23, 23, 16, 23, 16, 17, 16, 34, 23, 27, 0]);
+    }
+
+    #[test]
+    fn albedos_the_target_does_not_count_allocate_nothing() {
+        // Two channels × two albedos, the albedo fastest: the first albedo's
+        // values noisy (need 400/3 at 0.1), the second's flat. Counting
+        // both, the noisy ones set the need; counting the second alone,
+        // the flat ones do (0, so the pilot's count).
+        let noisy = tally(&[0.0, 4.0, 0.0, 4.0]);
+        let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
+        let values = [noisy, flat, noisy, flat];
+        assert!((needed(&values, 0.1, &[true, true]) - 400.0 / 3.0).abs() < 1e-9);
+        assert_eq!(needed(&values, 0.1, &[false, true]), 0.0);
+        assert_eq!(single(&values, &TARGET, &[false, true]), TARGET.pilot);
+        // A half-noisy second albedo alone sets it: (1/3) / 0.01.
+        let half = tally(&[1.0, 3.0, 1.0, 3.0]);
+        let values = [noisy, half, noisy, half];
+        assert!((needed(&values, 0.1, &[false, true]) - 100.0 / 3.0).abs() < 1e-9);
+        assert_eq!(pixels(&values, 4, 1, &TARGET, &[false, true]), vec![34]);
     }
 }

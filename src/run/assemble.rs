@@ -164,8 +164,9 @@ fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Ch
 }
 
 /// The noise a task's sums reached (against its noise target, or 0): per
-/// (wavelength, albedo), over the pixels or the viewing directions.
-pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, Noise)> {
+/// (wavelength, albedo), over the pixels or the viewing directions, with
+/// whether the target counts that albedo.
+pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, bool, Noise)> {
     let target = layout.target.map_or(0.0, |t| t.relative_se);
     let na = job.render.albedos.len();
     let nw = job.wavelengths_nm.len();
@@ -193,9 +194,11 @@ pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, No
         .iter()
         .enumerate()
         .map(|(k, t)| {
+            let albedo = job.render.albedos[k % na];
             (
                 job.wavelengths_nm[k / na],
-                job.render.albedos[k % na],
+                albedo,
+                layout.target.is_none_or(|t| t.albedos.counts(albedo)),
                 Noise::of(t, target),
             )
         })

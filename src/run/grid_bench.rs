@@ -7,8 +7,10 @@
 //! the ground).
 //!
 //! Every task renders to a noise target (`render.noise_target`) ten times
-//! the real one, [`BENCH_TARGET`] (its pilot allocates the samples per
-//! pixel), so that the subset fits in minutes, with the job's defaults
+//! the real one, [`BENCH_TARGET`], in the albedos the target below counts,
+//! those above 0 (`noise_target_albedos = "above_zero"`; its pilot
+//! allocates the samples per pixel; until 2026-11-26 albedo 0 allocated
+//! samples too), so that the subset fits in minutes, with the job's defaults
 //! otherwise (spectral groups, the ground view). The target is set so that
 //! pixels get thousands of paths: a path's contribution is heavy-tailed
 //! (at twilight the paths that carry most of the variance are rarer than
@@ -143,7 +145,10 @@ pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64,
     let samples = match fixed {
         Some(n) => format!("samples = {n}"),
         None => {
-            format!("noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}")
+            format!(
+                "noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}\n\
+                 noise_target_albedos = \"above_zero\""
+            )
         }
     };
     let text = job_text(quick, &samples);
@@ -157,7 +162,7 @@ pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64,
     let how = match fixed {
         Some(n) => format!("{n} samples per pixel"),
         None => format!(
-            "a noise target of {BENCH_TARGET} (pilot {BENCH_PILOT}, at most {BENCH_MAX_SAMPLES} samples per pixel)"
+            "a noise target of {BENCH_TARGET} in every albedo above 0 (pilot {BENCH_PILOT}, at most {BENCH_MAX_SAMPLES} samples per pixel)"
         ),
     };
     writeln!(

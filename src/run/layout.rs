@@ -105,6 +105,8 @@ pub struct Layout {
     /// Image width (pixels a row; 0 for directions): the allocation's
     /// neighbourhoods.
     width: usize,
+    /// Per albedo, whether the noise target counts it.
+    counted_albedos: Vec<bool>,
 }
 
 impl Layout {
@@ -260,6 +262,11 @@ impl Layout {
             adaptive_waves: true,
             target: spec.target,
             width,
+            counted_albedos: spec
+                .albedos
+                .iter()
+                .map(|&a| spec.target.is_none_or(|t| t.albedos.counts(a)))
+                .collect(),
         }
     }
 
@@ -288,11 +295,14 @@ impl Layout {
                     self.estimates[e].values,
                     self.width,
                     &target,
+                    &self.counted_albedos,
                 )),
-                EstimateKind::GroundView { .. } => {
-                    Allocation::Single(allocation::single(tallies, &allocation::ground_view(&target)))
-                }
-                _ => Allocation::Single(allocation::single(tallies, &target)),
+                EstimateKind::GroundView { .. } => Allocation::Single(allocation::single(
+                    tallies,
+                    &allocation::ground_view(&target),
+                    &self.counted_albedos,
+                )),
+                _ => Allocation::Single(allocation::single(tallies, &target, &self.counted_albedos)),
             });
         }
     }

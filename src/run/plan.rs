@@ -257,8 +257,11 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
     let samples = match job.render.target {
         None => format!("{} samples", job.render.samples),
         Some(t) => format!(
-            "samples to a relative standard error of I of {} (pilot {}, at most {})",
-            t.relative_se, t.pilot, t.max_samples
+            "samples to a relative standard error of I of {} in {} (pilot {}, at most {})",
+            t.relative_se,
+            t.albedos.describe(),
+            t.pilot,
+            t.max_samples
         ),
     };
     writeln!(

@@ -95,6 +95,7 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
             put("noise_target", format!("{:?}", t.relative_se));
             put("pilot_samples", t.pilot.to_string());
             put("max_samples", t.max_samples.to_string());
+            put("noise_target_albedos", quote(t.albedos.key_value()));
         }
     }
     put("paths", layout.paths(crate::run::shard::Shard::WHOLE).to_string());
