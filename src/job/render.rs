@@ -360,15 +360,18 @@ pub(super) fn resolve(
 /// `pilot_samples` and `max_samples`, which mean nothing without it, as
 /// `samples` means nothing with it.
 fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Option<NoiseTarget>> {
+    let counted = render.noise_target_albedos.map(|a| match a {
+        RawTargetAlbedos::All => TargetAlbedos::All,
+        RawTargetAlbedos::AboveZero => TargetAlbedos::AboveZero,
+    });
     let Some(relative_se) = render.noise_target else {
-        let albedos_key = render.noise_target_albedos.map(|a| match a {
-            RawTargetAlbedos::All => "all".to_string(),
-            RawTargetAlbedos::AboveZero => "above_zero".to_string(),
-        });
         for (key, given) in [
             ("render.pilot_samples", render.pilot_samples.map(|v| v.to_string())),
             ("render.max_samples", render.max_samples.map(|v| v.to_string())),
-            ("render.noise_target_albedos", albedos_key),
+            (
+                "render.noise_target_albedos",
+                counted.map(|a| a.key_value().to_string()),
+            ),
         ] {
             if let Some(v) = given {
                 return Err(ctx.invalid(
@@ -428,14 +431,11 @@ fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Opti
             &format!("at least {pilot}"),
         ));
     }
-    let counted = match render.noise_target_albedos.unwrap_or(RawTargetAlbedos::All) {
-        RawTargetAlbedos::All => TargetAlbedos::All,
-        RawTargetAlbedos::AboveZero => TargetAlbedos::AboveZero,
-    };
+    let counted = counted.unwrap_or(TargetAlbedos::All);
     if !albedos.iter().any(|&a| counted.counts(a)) {
         return Err(ctx.invalid(
             "render.noise_target_albedos",
-            "above_zero",
+            counted.key_value(),
             "ground.albedo has no albedo above 0, so the target would count nothing",
             "\"all\" (the default), or an albedo above 0 in ground.albedo",
         ));
