@@ -83,6 +83,9 @@ pub struct FlightDensity {
     /// Per followed channel: the totals of both parts, and whether it can
     /// be drawn from.
     totals: [(f64, f64, bool); MAX_FOLLOWED],
+    /// Per followed channel: the exponent the sun-following integrals are
+    /// shifted by (their true values are theirs × e^(−shift)).
+    shifts: [f64; MAX_FOLLOWED],
     followed: usize,
 }
 
@@ -194,6 +197,7 @@ impl FlightDensity {
             }
             let usable = sun_total > 0.0 && flight_total > 0.0 && sun_total.is_finite() && flight_total.is_finite();
             self.totals[k] = (sun_total, flight_total, usable);
+            self.shifts[k] = e_min;
             any |= usable;
         }
         any
@@ -223,6 +227,19 @@ impl FlightDensity {
             tau0[k] += acc[k].1;
         }
         self.pieces.push(piece);
+    }
+
+    /// The mean over the followed channels of the approximate sunlit
+    /// single scattering along the flight, ∫ c̄·e^(−τ)·e^(−τ̃_sun) dt
+    /// (0 for a channel that cannot be drawn from): what the flight would
+    /// bring a vertex at its start, to the densities' accuracy.
+    pub fn sunlit_integral(&self) -> f64 {
+        let nk = self.followed.max(1);
+        (0..self.followed)
+            .filter(|&k| self.totals[k].2)
+            .map(|k| self.totals[k].0 * (-self.shifts[k]).exp())
+            .sum::<f64>()
+            / nk as f64
     }
 
     /// Draws a point along the flight of `segments` (those of `build`),

@@ -12,7 +12,7 @@ use crate::polarization::stokes::Stokes;
 use crate::sampling::sampler::Sampler;
 use crate::transport::free_flight::FlightEnd;
 
-use super::path::{PIECE_SEGMENTS, Path};
+use super::path::{PIECE_SEGMENTS, Path, SunFollow};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
@@ -138,6 +138,21 @@ impl Scene {
         if path.segments.is_empty() {
             return true;
         }
+        if !self.build_sun_density(follow, path, ray) {
+            return true;
+        }
+        let Some(point) = path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler) else {
+            return true;
+        };
+        self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
+        true
+    }
+
+    /// The sun-following density along the flight along `ray` (its
+    /// segments in `path.segments`) into `path.density`
+    /// ([`FlightDensity`](crate::transport::flight_density::FlightDensity));
+    /// whether any followed channel can be drawn from.
+    pub(super) fn build_sun_density(&self, follow: &SunFollow, path: &mut Path, ray: &Ray) -> bool {
         let depth = &follow.depth;
         let nk = follow.channels.len();
         let s0 = self.sun.direction;
@@ -170,17 +185,8 @@ impl Scene {
             }
             o
         };
-        if !path
-            .density
+        path.density
             .build(ray, &path.segments, nk, PIECE_SEGMENTS, optics, depth, s0)
-        {
-            return true;
-        }
-        let Some(point) = path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler) else {
-            return true;
-        };
-        self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
-        true
     }
 
     /// Whether a sun-aware connection along the flight along `ray` to `end`
