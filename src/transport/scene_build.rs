@@ -34,10 +34,10 @@ impl Job {
     /// one group of eleven for the same worst-band noise with the sun at
     /// −1° and above, 0.8–0.96 times at −3° and −2°. At −4.2° one group
     /// was the cheaper until scattering directions were drawn in part
-    /// toward the sun's horizon (`tracer::sun_lobe`), which serves the
-    /// 480–760 nm bands far more than 320–360 nm: with it two groups cost
-    /// 0.57–0.69 times one (`bench --grid` tasks at −4.2°, 20 km visibility,
-    /// README "Spectral groups").
+    /// toward the sun's horizon (`tracer::sun_lobe`, then a fixed lobe),
+    /// which serves the 480–760 nm bands far more than 320–360 nm: with it
+    /// two groups cost 0.57–0.69 times one (`bench --grid` tasks at −4.2°,
+    /// 20 km visibility, README "Spectral groups").
     pub fn spectral_groups(&self, task: &Task) -> Vec<Vec<usize>> {
         let n = self.wavelengths_nm.len();
         let ln_tau: Vec<f64> = (0..n)

@@ -44,8 +44,9 @@
 //! channel's weight is its matrix over the mean of the channels' P11
 //! (one-sample MIS over channels and components). With the sun set
 //! (sun-aware connections, spherical geometry) 3 directions in 10 come
-//! from a lobe toward the sun's horizon instead (`sun_lobe`), and the
-//! weight's denominator is the mixture of both densities.
+//! from a lobe tabulated per layer toward the sunlit air instead
+//! (`sun_lobe`), and the weight's denominator is the mixture of both
+//! densities.
 //!
 //! **Sun connections** (next-event estimation) at every scattering and
 //! ground vertex, or along the whole flight instead: K stratified points
@@ -67,8 +68,9 @@
 //! ends of a flight toward a reflecting ground; two scattering directions
 //! a quarter turn apart, half the weight each), into a spare path kept
 //! per thread. After the second vertex, Russian roulette on the mean
-//! effective T₀₀ over the channels (survival min(1, T₀₀/0.1), the survivor
-//! divided by it).
+//! effective T₀₀ over the channels (survival min(1, T₀₀/r), r the job's
+//! `render.roulette_threshold`, 0.03 by default; the survivor divided by
+//! it).
 //!
 //! **Channels** may be bands (`band_width_nm` > 0): each path draws its
 //! own wavelength inside each band, stratified over the estimate's samples
@@ -100,5 +102,5 @@ mod tracking;
 mod vertex;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};
-pub use sun_lobe::{SUN_LOBE_ELEVATION_DEG, SUN_LOBE_G, SUN_LOBE_SHARE};
+pub use sun_lobe::SUN_LOBE_SHARE;
 pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};

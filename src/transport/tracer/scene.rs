@@ -20,6 +20,7 @@ use crate::transport::sun_depth::SunDepth;
 use super::aerosol_phase::AerosolPhases;
 use super::path::SunFollow;
 use super::spectra::{Basis, ChannelSpectra};
+use super::sun_lobe::SunLobes;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::reflects;
 
@@ -57,6 +58,10 @@ pub struct Scene {
     /// Sun-aware connections along every flight (`None`: connections at
     /// collisions).
     pub(super) sun_follow: Option<SunFollow>,
+    /// Where the sunlit air lies, per tracked layer, for scattering
+    /// directions with the sun low or set (`sun_lobe`; `None` where the
+    /// lobe is not used).
+    pub(super) sun_lobes: Option<SunLobes>,
     /// The smooth medium's shape of each layer (`None`: layered, σ constant
     /// in each layer).
     pub(super) shapes: Option<Vec<LayerShape>>,
@@ -174,6 +179,7 @@ impl Scene {
             fixed: None,
             solar: None,
             sun_follow: None,
+            sun_lobes: None,
             shapes: medium.shapes,
             term_shapes,
             basis_shapes,
@@ -279,6 +285,7 @@ impl Scene {
             coefficients,
             max_column: centre[n - 1].0,
         });
+        self.sun_lobes = self.build_sun_lobes();
         self
     }
 

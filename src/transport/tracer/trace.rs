@@ -7,7 +7,6 @@ use std::f64::consts::FRAC_1_PI;
 use glam::DVec3;
 
 use crate::geometry::ray::{Ray, WalkEnd};
-use crate::geometry::shell::Geometry;
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::phase_mixture::PhaseMixture;
 use crate::polarization::phase_table_set::PhaseTableSet;
@@ -17,7 +16,7 @@ use crate::sampling::sampler::Sampler;
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::sun_lobe::{SUN_LOBE_SHARE, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobe};
+use super::sun_lobe::{SUN_LOBE_SHARE, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
@@ -158,13 +157,13 @@ impl Scene {
                     // (`path.mixtures` holds every channel's mixture at the
                     // collision.)
                     // With the sun set, in part from the lobe toward the
-                    // sun's horizon instead (`sun_lobe`).
+                    // sunlit air instead (`sun_lobe`).
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
                     let tables = self.phase_tables();
-                    let lobe = self.sun_lobe(x);
+                    let lobe = self.sun_lobe(x, layer);
                     let from_lobe = lobe.is_some() && sampler.next_f64() < SUN_LOBE_SHARE;
                     let k_in = match lobe {
-                        Some(lobe) if from_lobe => -lobe.sample(sampler.next2()),
+                        Some(lobe) if from_lobe => -lobe.sample(sampler),
                         _ => path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables),
                     };
                     matrices_at(&mut path.matrices, &path.mixtures, tables, k_in.dot(k_out));
@@ -173,7 +172,7 @@ impl Scene {
                         branch.halve();
                         let k_branch = match lobe {
                             Some(lobe) if from_lobe => {
-                                let k = -lobe.sample(sampler.next2());
+                                let k = -lobe.sample(sampler);
                                 matrices_at(&mut branch.matrices, &path.mixtures, tables, k.dot(k_out));
                                 k
                             }
@@ -229,20 +228,6 @@ impl Scene {
             dir: -k_in,
             layer,
         })
-    }
-
-    /// The lobe toward the sun's horizon at a scattering vertex `x`: with
-    /// sun-aware connections in spherical geometry, and the sun below the
-    /// observer's horizon, or less than [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]
-    /// above it for channels whose column extinction is at most
-    /// [`SUN_LOBE_SUN_UP_MAX_COLUMN`]; else none (`sun_lobe`).
-    fn sun_lobe(&self, x: DVec3) -> Option<SunLobe> {
-        let follow = self.sun_follow.as_ref()?;
-        let elevation = 90.0 - self.sun.zenith_deg;
-        let used = elevation < 0.0
-            || (elevation < SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG && follow.max_column <= SUN_LOBE_SUN_UP_MAX_COLUMN);
-        (used && matches!(self.geometry, Geometry::Spherical { .. }))
-            .then(|| SunLobe::new(self.geometry.up(x), self.sun.direction))
     }
 
     /// A ground vertex at `x` and the rest of the path from it (unsplit).
