@@ -163,6 +163,29 @@ impl SunLobes {
     /// The lobe at a vertex in tracked layer `layer` whose local vertical
     /// is `up` (unit), for the direction toward the sun `sun` (unit).
     pub(super) fn at(&self, layer: usize, up: DVec3, sun: DVec3) -> SunLobe<'_> {
+        let rows = self.cdf.len() / (BINS + 1);
+        let layer = layer.min(rows - 1);
+        SunLobe {
+            cdf: &self.cdf[layer * (BINS + 1)..(layer + 1) * (BINS + 1)],
+            frame: LocalFrame::new(up, sun),
+        }
+    }
+}
+
+/// A vertex's frame: its vertical, the horizontal toward the sun's
+/// azimuth (any where the sun is at the zenith or nadir), and a quarter
+/// turn of that.
+#[derive(Debug, Clone, Copy)]
+struct LocalFrame {
+    up: DVec3,
+    east: DVec3,
+    north: DVec3,
+}
+
+impl LocalFrame {
+    /// The frame at a vertex whose local vertical is `up` (unit), for the
+    /// direction toward the sun `sun` (unit).
+    fn new(up: DVec3, sun: DVec3) -> LocalFrame {
         let horizontal = sun - sun.dot(up) * up;
         let len = horizontal.length();
         let east = if len > 1e-12 {
@@ -170,14 +193,19 @@ impl SunLobes {
         } else {
             up.any_orthonormal_vector()
         };
-        let rows = self.cdf.len() / (BINS + 1);
-        let layer = layer.min(rows - 1);
-        SunLobe {
-            cdf: &self.cdf[layer * (BINS + 1)..(layer + 1) * (BINS + 1)],
+        LocalFrame {
             up,
             east,
             north: up.cross(east),
         }
+    }
+
+    /// The direction of zenith-angle cosine `mu` and azimuth `side`·`phi`
+    /// from the sun's (`side` ±1).
+    fn direction(&self, mu: f64, phi: f64, side: f64) -> DVec3 {
+        let s = (1.0 - mu * mu).max(0.0).sqrt();
+        let (sp, cp) = phi.sin_cos();
+        s * cp * self.east + side * s * sp * self.north + mu * self.up
     }
 }
 
@@ -185,10 +213,7 @@ impl SunLobes {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct SunLobe<'a> {
     cdf: &'a [f64],
-    up: DVec3,
-    /// The horizontal toward the sun's azimuth, and a quarter turn of it.
-    east: DVec3,
-    north: DVec3,
+    frame: LocalFrame,
 }
 
 impl SunLobe<'_> {
@@ -208,17 +233,15 @@ impl SunLobe<'_> {
         };
         let (i, j) = (b / SUN_LOBE_PHI_BINS, b % SUN_LOBE_PHI_BINS);
         let mu = (-1.0 + (i as f64 + u[1]) * D_MU).clamp(-1.0, 1.0);
-        let phi = (j as f64 + u[2]) * D_PHI;
-        let s = (1.0 - mu * mu).max(0.0).sqrt();
-        let (sp, cp) = phi.sin_cos();
-        s * cp * self.east + side * s * sp * self.north + mu * self.up
+        self.frame.direction(mu, (j as f64 + u[2]) * D_PHI, side)
     }
 
     /// 4π times the lobe's density per steradian of propagation direction
     /// `d` (the scale of the phase functions' P11).
     pub(super) fn density_4pi(&self, d: DVec3) -> f64 {
-        let mu = d.dot(self.up).clamp(-1.0, 1.0);
-        let phi = d.dot(self.north).abs().atan2(d.dot(self.east));
+        let f = &self.frame;
+        let mu = d.dot(f.up).clamp(-1.0, 1.0);
+        let phi = d.dot(f.north).abs().atan2(d.dot(f.east));
         let i = (((mu + 1.0) / D_MU) as usize).min(SUN_LOBE_MU_BINS - 1);
         let j = ((phi / D_PHI) as usize).min(SUN_LOBE_PHI_BINS - 1);
         let b = i * SUN_LOBE_PHI_BINS + j;
@@ -263,19 +286,9 @@ impl Scene {
         let mut path = Path::default();
         let values = SunLobes::values(layers, |m, mu, phi| {
             let origin = self.geometry.observer_position(0.5 * (levels[m] + levels[m + 1]));
-            let up = self.geometry.up(origin);
-            let horizontal = sun - sun.dot(up) * up;
-            let east = if horizontal.length() > 1e-12 {
-                horizontal.normalize()
-            } else {
-                up.any_orthonormal_vector()
-            };
-            let north = up.cross(east);
-            let s = (1.0 - mu * mu).max(0.0).sqrt();
-            let (sp, cp) = phi.sin_cos();
             let ray = Ray {
                 origin,
-                dir: s * cp * east + s * sp * north + mu * up,
+                dir: LocalFrame::new(self.geometry.up(origin), sun).direction(mu, phi, 1.0),
                 layer: m,
             };
             if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
@@ -327,8 +340,8 @@ mod tests {
             let at = g.at(layer, up, sun);
             let (nm, np) = (10usize, 12usize);
             let cell = |d: DVec3| {
-                let mu = d.dot(at.up).clamp(-1.0, 1.0);
-                let phi = d.dot(at.north).atan2(d.dot(at.east));
+                let mu = d.dot(at.frame.up).clamp(-1.0, 1.0);
+                let phi = d.dot(at.frame.north).atan2(d.dot(at.frame.east));
                 let i = (((mu + 1.0) / 2.0 * nm as f64) as usize).min(nm - 1);
                 let j = (((phi + PI) / (2.0 * PI) * np as f64) as usize).min(np - 1);
                 i * np + j
@@ -351,7 +364,7 @@ mod tests {
                     let mu = -1.0 + (a as f64 + 0.5) * 2.0 / fm as f64;
                     let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / fp as f64;
                     let s = (1.0 - mu * mu).sqrt();
-                    let d = s * phi.cos() * at.east + s * phi.sin() * at.north + mu * at.up;
+                    let d = s * phi.cos() * at.frame.east + s * phi.sin() * at.frame.north + mu * at.frame.up;
                     let w = at.density_4pi(d) / (4.0 * PI) * (2.0 / fm as f64) * (2.0 * PI / fp as f64);
                     expected[cell(d)] += w;
                     total += w;
