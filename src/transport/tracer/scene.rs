@@ -9,6 +9,7 @@ use glam::DVec3;
 use crate::atmosphere::layer_shape::LayerShape;
 use crate::atmosphere::optics::PointOptics;
 use crate::atmosphere::spectral_terms::{SpectralTerms, TermOptics, TermShape};
+use crate::geometry::ray::Ray;
 use crate::geometry::shell::Geometry;
 use crate::geometry::sun::Sun;
 use crate::job::options::{MAX_ALBEDOS, Settings, SunTransmittance, TrackingLayers};
@@ -18,9 +19,9 @@ use crate::transport::medium::density_steps;
 use crate::transport::sun_depth::SunDepth;
 
 use super::aerosol_phase::AerosolPhases;
-use super::path::SunFollow;
+use super::path::{Path, SunFollow};
 use super::spectra::{Basis, ChannelSpectra};
-use super::sun_lobe::SunLobes;
+use super::sun_lobe::{LocalFrame, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes};
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::reflects;
 
@@ -287,6 +288,51 @@ impl Scene {
         });
         self.sun_lobes = self.build_sun_lobes();
         self
+    }
+
+    /// Whether scattering directions are drawn in part from the lobe: with
+    /// sun-aware connections in spherical geometry, and the sun below the
+    /// observer's horizon, or less than [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]
+    /// above it for channels whose column extinction is at most
+    /// [`SUN_LOBE_SUN_UP_MAX_COLUMN`].
+    fn sun_lobe_used(&self) -> bool {
+        let Some(follow) = self.sun_follow.as_ref() else {
+            return false;
+        };
+        let elevation = 90.0 - self.sun.zenith_deg;
+        let used = elevation < 0.0
+            || (elevation < SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG && follow.max_column <= SUN_LOBE_SUN_UP_MAX_COLUMN);
+        used && matches!(self.geometry, Geometry::Spherical { .. })
+    }
+
+    /// The lobe's table: per tracked layer, the sunlit single scattering
+    /// along each bin's central direction from the layer's middle on the
+    /// observer's vertical (`None` where the lobe is not used).
+    fn build_sun_lobes(&self) -> Option<SunLobes> {
+        if !self.sun_lobe_used() {
+            return None;
+        }
+        let follow = self.sun_follow.as_ref()?;
+        let levels = &self.track.levels_km;
+        let layers = self.track.layers();
+        let sun = self.sun.direction;
+        let mut path = Path::default();
+        let values = SunLobes::values(layers, |m, mu, phi| {
+            let origin = self.geometry.observer_position(0.5 * (levels[m] + levels[m + 1]));
+            let ray = Ray {
+                origin,
+                dir: LocalFrame::new(self.geometry.up(origin), sun).direction(mu, phi, 1.0),
+                layer: m,
+            };
+            if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
+                return 0.0;
+            }
+            if !self.build_sun_density(follow, &mut path, &ray) {
+                return 0.0;
+            }
+            path.density.sunlit_integral()
+        });
+        Some(SunLobes::from_values(layers, &values))
     }
 
     /// The atmosphere's levels (km).

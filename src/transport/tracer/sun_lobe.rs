@@ -63,12 +63,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use crate::geometry::ray::Ray;
-use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
-
-use super::path::Path;
-use super::scene::Scene;
 
 /// The share of scattering directions drawn from the lobe.
 pub const SUN_LOBE_SHARE: f64 = 0.3;
@@ -176,7 +171,7 @@ impl SunLobes {
 /// azimuth (any where the sun is at the zenith or nadir), and a quarter
 /// turn of that.
 #[derive(Debug, Clone, Copy)]
-struct LocalFrame {
+pub(super) struct LocalFrame {
     up: DVec3,
     east: DVec3,
     north: DVec3,
@@ -185,7 +180,7 @@ struct LocalFrame {
 impl LocalFrame {
     /// The frame at a vertex whose local vertical is `up` (unit), for the
     /// direction toward the sun `sun` (unit).
-    fn new(up: DVec3, sun: DVec3) -> LocalFrame {
+    pub(super) fn new(up: DVec3, sun: DVec3) -> LocalFrame {
         let horizontal = sun - sun.dot(up) * up;
         let len = horizontal.length();
         let east = if len > 1e-12 {
@@ -202,7 +197,7 @@ impl LocalFrame {
 
     /// The direction of zenith-angle cosine `mu` and azimuth `side`·`phi`
     /// from the sun's (`side` ±1).
-    fn direction(&self, mu: f64, phi: f64, side: f64) -> DVec3 {
+    pub(super) fn direction(&self, mu: f64, phi: f64, side: f64) -> DVec3 {
         let s = (1.0 - mu * mu).max(0.0).sqrt();
         let (sp, cp) = phi.sin_cos();
         s * cp * self.east + side * s * sp * self.north + mu * self.up
@@ -253,59 +248,6 @@ impl SunLobe<'_> {
     /// whose channels' mean P11 is `mean_p11`.
     pub(super) fn inverse_mixture(&self, mean_p11: f64, d: DVec3) -> f64 {
         1.0 / ((1.0 - SUN_LOBE_SHARE) * mean_p11 + SUN_LOBE_SHARE * self.density_4pi(d))
-    }
-}
-
-impl Scene {
-    /// Whether scattering directions are drawn in part from the lobe: with
-    /// sun-aware connections in spherical geometry, and the sun below the
-    /// observer's horizon, or less than [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`]
-    /// above it for channels whose column extinction is at most
-    /// [`SUN_LOBE_SUN_UP_MAX_COLUMN`].
-    pub(super) fn sun_lobe_used(&self) -> bool {
-        let Some(follow) = self.sun_follow.as_ref() else {
-            return false;
-        };
-        let elevation = 90.0 - self.sun.zenith_deg;
-        let used = elevation < 0.0
-            || (elevation < SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG && follow.max_column <= SUN_LOBE_SUN_UP_MAX_COLUMN);
-        used && matches!(self.geometry, Geometry::Spherical { .. })
-    }
-
-    /// The lobe's table: per tracked layer, the sunlit single scattering
-    /// along each bin's central direction from the layer's middle on the
-    /// observer's vertical (`None` where the lobe is not used).
-    pub(super) fn build_sun_lobes(&self) -> Option<SunLobes> {
-        if !self.sun_lobe_used() {
-            return None;
-        }
-        let follow = self.sun_follow.as_ref()?;
-        let levels = &self.track.levels_km;
-        let layers = self.track.layers();
-        let sun = self.sun.direction;
-        let mut path = Path::default();
-        let values = SunLobes::values(layers, |m, mu, phi| {
-            let origin = self.geometry.observer_position(0.5 * (levels[m] + levels[m + 1]));
-            let ray = Ray {
-                origin,
-                dir: LocalFrame::new(self.geometry.up(origin), sun).direction(mu, phi, 1.0),
-                layer: m,
-            };
-            if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
-                return 0.0;
-            }
-            if !self.build_sun_density(follow, &mut path, &ray) {
-                return 0.0;
-            }
-            path.density.sunlit_integral()
-        });
-        Some(SunLobes::from_values(layers, &values))
-    }
-
-    /// The lobe at `x` in tracked layer `layer`, where it is used.
-    pub(super) fn sun_lobe(&self, x: DVec3, layer: usize) -> Option<SunLobe<'_>> {
-        let lobes = self.sun_lobes.as_ref()?;
-        Some(lobes.at(layer, self.geometry.up(x), self.sun.direction))
     }
 }
 

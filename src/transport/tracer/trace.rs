@@ -230,6 +230,12 @@ impl Scene {
         })
     }
 
+    /// The lobe at `x` in tracked layer `layer`, where it is used.
+    pub(super) fn sun_lobe(&self, x: DVec3, layer: usize) -> Option<SunLobe<'_>> {
+        let lobes = self.sun_lobes.as_ref()?;
+        Some(lobes.at(layer, self.geometry.up(x), self.sun.direction))
+    }
+
     /// A ground vertex at `x` and the rest of the path from it (unsplit).
     pub(super) fn trace_on_from_ground(
         &self,
