@@ -369,3 +369,55 @@ impl Scene {
         self.settings.order_done(order)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path as FsPath;
+
+    use crate::job::Job;
+
+    /// The built-in default atmosphere at 500 nm with the sun at
+    /// `elevation_deg`, seen from the ground.
+    fn job(elevation_deg: f64) -> Job {
+        let text = format!(
+            "[sun]\nelevation_deg = {elevation_deg}\n[spectrum]\nwavelengths_nm = [500.0]\n\
+             [sensor]\ntype = \"directions\"\ndirections = [[0.0, 0.0]]\n[render]\nsamples = 1\n"
+        );
+        Job::parse(&text, "test.toml", FsPath::new(".")).expect("a valid job")
+    }
+
+    #[test]
+    fn the_lobe_table_looks_where_the_sunlit_air_is() {
+        // With the sun 4.2° down, the sunlit air lies toward the sun's
+        // azimuth, low: near the horizon from the ground, just below the
+        // local horizon (the sunlit limb) from the stratosphere; looking
+        // down into the shadow finds none. With the sun 45° up there is no
+        // table at all.
+        let scene = job(-4.2).scene(0);
+        let lobes = scene.sun_lobes.as_ref().expect("a table with the sun set");
+        let sun = scene.sun.direction;
+        let levels = &scene.track.levels_km;
+        let layer_at = |z: f64| levels.partition_point(|&l| l <= z) - 1;
+        for z in [0.5, 3.5, 8.5, 15.5, 25.5] {
+            let layer = layer_at(z);
+            let up = scene.geometry.up(scene.geometry.observer_position(z));
+            let east = (sun - sun.dot(up) * up).normalize();
+            let north = up.cross(east);
+            let dir = |mu: f64, phi: f64| {
+                let s = (1.0 - mu * mu).sqrt();
+                s * phi.cos() * east + s * phi.sin() * north + mu * up
+            };
+            let at = lobes.at(layer, up, sun);
+            let toward = at.density_4pi(dir(0.1, 0.1));
+            let away = at.density_4pi(dir(0.1, 3.0));
+            let down = at.density_4pi(dir(-0.9, 0.0));
+            assert!(toward > 10.0 * away, "{z} km: toward the sun {toward}, away {away}");
+            assert!(down < 0.01 * toward, "{z} km: down {down}, toward the sun {toward}");
+            if z > 15.0 {
+                let limb = at.density_4pi(dir(-0.03, 0.1));
+                assert!(limb > toward, "{z} km: the limb {limb}, above the horizon {toward}");
+            }
+        }
+        assert!(job(45.0).scene(0).sun_lobes.is_none());
+    }
+}
