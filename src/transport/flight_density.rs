@@ -307,3 +307,78 @@ impl FlightDensity {
         (pdf > 0.0 && pdf.is_finite()).then_some(Point { t, segment, pdf })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::shell::Geometry;
+
+    #[test]
+    fn the_sunlit_integral_is_the_closed_form_in_exponential_layers() {
+        // Plane-parallel layers 0–5 km (σ 0.1/km) and 5–10 km (σ 0.02/km),
+        // sun at μ0 = 0.5, c = σ_s·P11 = 0.7 and 0.3; a vertical flight
+        // from 1 km to the top (a piece ends on a level, as flights do),
+        // one piece per segment. Along it both exponents
+        // are linear in each layer, so the pieces are exact and
+        // ∫ c·e^(−τ(t))·e^(−τ_sun(t)) dt has a closed form per layer:
+        // c·e^(−a)·(1 − e^(−b·L))/b, a the exponent at the layer's start
+        // and b its slope.
+        let levels = [0.0, 5.0, 10.0];
+        let sigma = [0.1, 0.02];
+        let c = [0.7, 0.3];
+        let mu0: f64 = 0.5;
+        let sun = DVec3::new((1.0 - mu0 * mu0).sqrt(), 0.0, mu0);
+        let depth = SunDepth::of_profiles(&levels, &[sigma.to_vec()], &Geometry::PlaneParallel, sun, false);
+        let ray = Ray {
+            origin: DVec3::new(0.0, 0.0, 1.0),
+            dir: DVec3::Z,
+            layer: 0,
+        };
+        let segments = [
+            Segment {
+                t0: 0.0,
+                t1: 4.0,
+                layer: 0,
+            },
+            Segment {
+                t0: 4.0,
+                t1: 9.0,
+                layer: 1,
+            },
+        ];
+        let mut density = FlightDensity::default();
+        let usable = density.build(
+            &ray,
+            &segments,
+            1,
+            1,
+            |_, s| {
+                let mut o = [(0.0, 0.0); MAX_FOLLOWED];
+                o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
+                o
+            },
+            &depth,
+            sun,
+        );
+        assert!(usable);
+        // τ_sun at altitude z: the column above over μ0.
+        let above = |z: f64| {
+            if z < 5.0 {
+                sigma[0] * (5.0 - z) + sigma[1] * 5.0
+            } else {
+                sigma[1] * (10.0 - z)
+            }
+        };
+        let mut expected = 0.0;
+        let mut tau = 0.0;
+        for s in &segments {
+            let (z0, len, k) = (1.0 + s.t0, s.t1 - s.t0, sigma[s.layer]);
+            let a = tau + above(z0) / mu0;
+            let b = k - k / mu0;
+            expected += c[s.layer] * (-a).exp() * (1.0 - (-b * len).exp()) / b;
+            tau += k * len;
+        }
+        let got = density.sunlit_integral();
+        assert!((got / expected - 1.0).abs() < 1e-12, "{got} against {expected}");
+    }
+}

@@ -231,7 +231,7 @@ impl Scene {
     }
 
     /// The lobe at `x` in tracked layer `layer`, where it is used.
-    pub(super) fn sun_lobe(&self, x: DVec3, layer: usize) -> Option<SunLobe<'_>> {
+    fn sun_lobe(&self, x: DVec3, layer: usize) -> Option<SunLobe<'_>> {
         let lobes = self.sun_lobes.as_ref()?;
         Some(lobes.at(layer, self.geometry.up(x), self.sun.direction))
     }
