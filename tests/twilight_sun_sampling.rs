@@ -22,9 +22,8 @@ mod common;
 
 use std::time::Instant;
 
-use atmosim::film::tally::Tally;
 use atmosim::job::options::SunSampling;
-use common::{Comparison, directions, job, render, samples};
+use common::{Comparison, SeedRuns, directions, job, render, samples};
 
 const SEEDS: u64 = 16;
 const UP: [(f64, f64); 6] = [
@@ -44,57 +43,6 @@ fn job_text(elevation_deg: f64, wavelength_nm: f64, sampling: &str, seed: u64) -
          [sun]\nelevation_deg = {elevation_deg:?}\n[ground]\nalbedo = 0.2\n[render]\nseed = {seed}\n\
          sun_sampling = \"{sampling}\"\n"
     )
-}
-
-/// 16 renders of one job and sampling: per direction the tallies of each
-/// seed, and the seconds they took.
-struct Runs {
-    tallies: Vec<Vec<Tally>>,
-    seconds: f64,
-    paths: u64,
-}
-
-impl Runs {
-    /// Mean of the seeds' estimates of component `s` in direction `d`, and
-    /// its reported standard error (from each render's own errors).
-    fn mean_and_se(&self, d: usize, s: usize) -> (f64, f64) {
-        let n = self.tallies.len() as f64;
-        let mean = self.tallies.iter().map(|t| t[d].mean()[s]).sum::<f64>() / n;
-        let var = self
-            .tallies
-            .iter()
-            .map(|t| t[d].standard_error()[s].powi(2))
-            .sum::<f64>()
-            / (n * n);
-        (mean, var.sqrt())
-    }
-
-    /// The spread of the seeds' estimates of component `s` in direction
-    /// `d` (sample variance) over their mean reported variance.
-    fn spread_over_reported(&self, d: usize, s: usize) -> f64 {
-        let n = self.tallies.len() as f64;
-        let mean = self.tallies.iter().map(|t| t[d].mean()[s]).sum::<f64>() / n;
-        let spread = self
-            .tallies
-            .iter()
-            .map(|t| (t[d].mean()[s] - mean).powi(2))
-            .sum::<f64>()
-            / (n - 1.0);
-        let reported = self
-            .tallies
-            .iter()
-            .map(|t| t[d].standard_error()[s].powi(2))
-            .sum::<f64>()
-            / n;
-        spread / reported
-    }
-
-    /// Variance of I per path times seconds per path, direction `d`.
-    fn cost(&self, d: usize) -> f64 {
-        let (mean, se) = self.mean_and_se(d, 0);
-        let per_path_var = (se / mean).powi(2) * self.paths as f64;
-        per_path_var * self.seconds / self.paths as f64
-    }
 }
 
 /// The sun elevations: −2°, −4.2° and +2°, or those listed in
@@ -144,7 +92,7 @@ fn sun_aware_and_collision_agree_at_twilight_with_honest_errors() {
                         *seconds += start.elapsed().as_secs_f64();
                     }
                 }
-                let [a, b] = runs.map(|(_, _, tallies, seconds)| Runs {
+                let [a, b] = runs.map(|(_, _, tallies, seconds)| SeedRuns {
                     tallies,
                     seconds,
                     paths: SEEDS * n * dirs.len() as u64,
@@ -157,15 +105,7 @@ fn sun_aware_and_collision_agree_at_twilight_with_honest_errors() {
                         agreement.add(|| format!("{label}, θ {z} φ {az}, Stokes {s}"), ma, sa, mb, sb);
                     }
                 }
-                // Pooled over the directions where the value has noise (Q of
-                // the depolarising ground seen from the ground has none).
-                let pooled = |r: &Runs, s: usize| {
-                    let ratios: Vec<f64> = (0..dirs.len())
-                        .filter(|&d| r.mean_and_se(d, s).1 > 0.0)
-                        .map(|d| r.spread_over_reported(d, s))
-                        .collect();
-                    (ratios.iter().sum::<f64>() / ratios.len() as f64).sqrt()
-                };
+                let pooled = |r: &SeedRuns, s: usize| r.pooled_spread(s);
                 let (ra, rb) = (pooled(&a, 0), pooled(&b, 0));
                 ratios.push((format!("{label}, sun_aware"), ra));
                 ratios.push((format!("{label}, collision"), rb));

@@ -111,7 +111,9 @@ pub enum SunSampling {
     /// `SunAware` in plane-parallel geometry (where it costs little) and
     /// for a sun lower than 10° above the horizon, else `Collision`: where
     /// the measured efficiencies of the two cross over (README, "Sun
-    /// connections at twilight").
+    /// connections at twilight"); with the sun 10° to 25° up, scattering
+    /// directions are also drawn in part about the sun (README,
+    /// "Scattering around the sun").
     Auto,
 }
 

@@ -2,10 +2,10 @@
 //! task's paths carry, with the job's albedos, medium and settings. (An
 //! inherent `impl Job` here, so the job itself knows nothing of transport.)
 
-use crate::job::options::{AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups};
+use crate::job::options::{AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups, SunSampling};
 use crate::job::spectrum::Channel;
 use crate::job::{Job, Task};
-use crate::transport::tracer::{MediumSettings, Scene};
+use crate::transport::tracer::{MediumSettings, Scene, sun_peak_serves};
 
 impl Job {
     /// The shared-spectral-path scene of a task: all channels at once, when
@@ -107,7 +107,17 @@ impl Job {
             r.settings,
             medium,
         );
-        let scene = if sun_aware { scene.with_sun_aware() } else { scene };
+        // With `auto`, a sun low but up whose connections are at collisions
+        // gets scattering directions drawn in part about it (`sun_peak`).
+        let sun_peak =
+            !sun_aware && r.settings.sun_sampling == SunSampling::Auto && sun_peak_serves(task.sun.zenith_deg);
+        let scene = if sun_aware {
+            scene.with_sun_aware()
+        } else if sun_peak {
+            scene.with_sun_peak()
+        } else {
+            scene
+        };
         match &self.solar {
             Some(solar) if self.tracer_weights_by_solar() => scene.with_solar_weights(solar.clone()),
             _ => scene,

@@ -229,3 +229,67 @@ pub fn assert_refused(command: &str, job: &str, words: &[&str]) {
     assert!(words.iter().all(|w| err.contains(w)), "{words:?} not named: {err}");
     assert!(!dir.path().join("out").exists(), "{job}: files written");
 }
+
+/// Renders of one job with several seeds: per seed the tallies of each
+/// direction, the seconds they took and the paths they traced.
+pub struct SeedRuns {
+    pub tallies: Vec<Vec<Tally>>,
+    pub seconds: f64,
+    pub paths: u64,
+}
+
+impl SeedRuns {
+    /// Mean of the seeds' estimates of component `s` in direction `d`, and
+    /// its reported standard error (from each render's own errors).
+    pub fn mean_and_se(&self, d: usize, s: usize) -> (f64, f64) {
+        let n = self.tallies.len() as f64;
+        let mean = self.tallies.iter().map(|t| t[d].mean()[s]).sum::<f64>() / n;
+        let var = self
+            .tallies
+            .iter()
+            .map(|t| t[d].standard_error()[s].powi(2))
+            .sum::<f64>()
+            / (n * n);
+        (mean, var.sqrt())
+    }
+
+    /// The spread of the seeds' estimates of component `s` in direction
+    /// `d` (sample variance) over their mean reported variance.
+    pub fn spread_over_reported(&self, d: usize, s: usize) -> f64 {
+        let n = self.tallies.len() as f64;
+        let mean = self.tallies.iter().map(|t| t[d].mean()[s]).sum::<f64>() / n;
+        let spread = self
+            .tallies
+            .iter()
+            .map(|t| (t[d].mean()[s] - mean).powi(2))
+            .sum::<f64>()
+            / (n - 1.0);
+        let reported = self
+            .tallies
+            .iter()
+            .map(|t| t[d].standard_error()[s].powi(2))
+            .sum::<f64>()
+            / n;
+        spread / reported
+    }
+
+    /// The square root of the spread over the reported variance of
+    /// component `s`, averaged over the directions where it has noise (Q
+    /// of the depolarising ground seen from the ground has none): about 1
+    /// where the reported standard errors are honest.
+    pub fn pooled_spread(&self, s: usize) -> f64 {
+        let directions = self.tallies[0].len();
+        let ratios: Vec<f64> = (0..directions)
+            .filter(|&d| self.mean_and_se(d, s).1 > 0.0)
+            .map(|d| self.spread_over_reported(d, s))
+            .collect();
+        (ratios.iter().sum::<f64>() / ratios.len() as f64).sqrt()
+    }
+
+    /// Variance of I per path times seconds per path, direction `d`.
+    pub fn cost(&self, d: usize) -> f64 {
+        let (mean, se) = self.mean_and_se(d, 0);
+        let per_path_var = (se / mean).powi(2) * self.paths as f64;
+        per_path_var * self.seconds / self.paths as f64
+    }
+}

@@ -45,8 +45,9 @@
 //! (one-sample MIS over channels and components). With the sun set
 //! (sun-aware connections, spherical geometry) 3 directions in 10 come
 //! from a lobe tabulated per layer toward the sunlit air instead
-//! (`sun_lobe`), and the weight's denominator is the mixture of both
-//! densities.
+//! (`sun_lobe`), and with the sun 10° to 25° up 1 in 10 from a lobe about
+//! the sun (`sun_peak`); the weight's denominator is then the mixture of
+//! both densities (`direction_guide`).
 //!
 //! **Sun connections** (next-event estimation) at every scattering and
 //! ground vertex, or along the whole flight instead: K stratified points
@@ -90,6 +91,7 @@
 mod aerosol_phase;
 mod channel_optics;
 mod direct;
+mod direction_guide;
 mod flight;
 mod path;
 mod residual;
@@ -97,10 +99,14 @@ mod scene;
 mod spectra;
 mod sun_connection;
 mod sun_lobe;
+mod sun_peak;
 mod trace;
 mod tracking;
 mod vertex;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};
 pub use sun_lobe::SUN_LOBE_SHARE;
+pub use sun_peak::{
+    SUN_PEAK_G, SUN_PEAK_MAX_ELEVATION_DEG, SUN_PEAK_MIN_ELEVATION_DEG, SUN_PEAK_SHARE, sun_peak_serves,
+};
 pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};

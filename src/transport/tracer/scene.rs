@@ -22,6 +22,7 @@ use super::aerosol_phase::AerosolPhases;
 use super::path::{Path, SunFollow};
 use super::spectra::{Basis, ChannelSpectra};
 use super::sun_lobe::{LocalFrame, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes};
+use super::sun_peak::SunPeak;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::reflects;
 
@@ -63,6 +64,9 @@ pub struct Scene {
     /// directions with the sun low or set (`sun_lobe`; `None` where the
     /// lobe is not used).
     pub(super) sun_lobes: Option<SunLobes>,
+    /// The lobe about the sun for scattering directions with the sun low
+    /// but up (`sun_peak`; `None` where it is not used).
+    pub(super) sun_peak: Option<SunPeak>,
     /// The smooth medium's shape of each layer (`None`: layered, σ constant
     /// in each layer).
     pub(super) shapes: Option<Vec<LayerShape>>,
@@ -181,6 +185,7 @@ impl Scene {
             solar: None,
             sun_follow: None,
             sun_lobes: None,
+            sun_peak: None,
             shapes: medium.shapes,
             term_shapes,
             basis_shapes,
@@ -226,6 +231,14 @@ impl Scene {
             self.refresh_solar(&mut fixed, |w| self.channels[w].lambda_nm);
             self.fixed = Some(fixed);
         }
+        self
+    }
+
+    /// The scene with scattering directions drawn in part about the sun
+    /// (`sun_peak`), for a sun low but up whose connections are at
+    /// collisions.
+    pub fn with_sun_peak(mut self) -> Scene {
+        self.sun_peak = Some(SunPeak::new(self.sun.direction));
         self
     }
 
@@ -419,5 +432,31 @@ mod tests {
             }
         }
         assert!(job(45.0).scene(0).sun_lobes.is_none());
+    }
+
+    #[test]
+    fn auto_draws_about_the_sun_from_10_to_25_degrees_only() {
+        // The lobe about the sun with `auto` and the sun 10° to 25° up;
+        // below, the lobe toward the sunlit air where it serves (both
+        // never); above, and with `sun_sampling = "collision"`, neither.
+        for (elevation, peak) in [
+            (-4.2, false),
+            (2.0, false),
+            (9.5, false),
+            (10.0, true),
+            (17.0, true),
+            (25.0, false),
+            (60.0, false),
+        ] {
+            let scene = job(elevation).scene(0);
+            assert_eq!(scene.sun_peak.is_some(), peak, "sun {elevation}°");
+            assert!(
+                !(scene.sun_peak.is_some() && scene.sun_lobes.is_some()),
+                "sun {elevation}°"
+            );
+        }
+        let text = "[sun]\nelevation_deg = 17.0\n[spectrum]\nwavelengths_nm = [500.0]\n[render]\nsun_sampling = \"collision\"\n";
+        let collision = Job::parse(text, "test.toml", FsPath::new(".")).expect("a valid job");
+        assert!(collision.scene(0).sun_peak.is_none());
     }
 }

@@ -243,12 +243,6 @@ impl SunLobe<'_> {
         // Both mirror halves: a solid angle of 2·Δμ·Δφ.
         4.0 * PI * (self.cdf[b + 1] - self.cdf[b]) / (2.0 * D_MU * D_PHI)
     }
-
-    /// The inverse of the mixture's density (times 4π) of a direction
-    /// whose channels' mean P11 is `mean_p11`.
-    pub(super) fn inverse_mixture(&self, mean_p11: f64, d: DVec3) -> f64 {
-        1.0 / ((1.0 - SUN_LOBE_SHARE) * mean_p11 + SUN_LOBE_SHARE * self.density_4pi(d))
-    }
 }
 
 #[cfg(test)]

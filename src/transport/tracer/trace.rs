@@ -13,10 +13,10 @@ use crate::polarization::phase_table_set::PhaseTableSet;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
 
+use super::direction_guide::DirectionGuide;
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::sun_lobe::{SUN_LOBE_SHARE, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
@@ -156,36 +156,36 @@ impl Scene {
                     // densities.
                     // (`path.mixtures` holds every channel's mixture at the
                     // collision.)
-                    // With the sun set, in part from the lobe toward the
-                    // sunlit air instead (`sun_lobe`).
+                    // With the sun low or set, in part from a guide instead
+                    // (`direction_guide`).
                     let pick = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
                     let tables = self.phase_tables();
-                    let lobe = self.sun_lobe(x, layer);
-                    let from_lobe = lobe.is_some() && sampler.next_f64() < SUN_LOBE_SHARE;
-                    let k_in = match lobe {
-                        Some(lobe) if from_lobe => -lobe.sample(sampler),
+                    let guide = self.direction_guide(x, layer);
+                    let from_guide = guide.is_some_and(|g| sampler.next_f64() < g.share());
+                    let k_in = match guide {
+                        Some(guide) if from_guide => -guide.sample(sampler),
                         _ => path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables),
                     };
                     matrices_at(&mut path.matrices, &path.mixtures, tables, k_in.dot(k_out));
                     if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
                         branch.branch_from(path);
                         branch.halve();
-                        let k_branch = match lobe {
-                            Some(lobe) if from_lobe => {
-                                let k = -lobe.sample(sampler);
+                        let k_branch = match guide {
+                            Some(guide) if from_guide => {
+                                let k = -guide.sample(sampler);
                                 matrices_at(&mut branch.matrices, &path.mixtures, tables, k.dot(k_out));
                                 k
                             }
                             _ => quarter_turn(k_out, k_in),
                         };
-                        let inv_density = direction_weight(&branch.matrices, lobe, -k_branch);
+                        let inv_density = direction_weight(&branch.matrices, guide, -k_branch);
                         if let Some(next) = self.scattered(branch, k_branch, k_out, x, layer, inv_density, sampler) {
                             self.trace(branch, spectra, next, sampler, None);
                         }
                         std::mem::swap(&mut path.radiance, &mut branch.radiance);
                         path.halve();
                     }
-                    let inv_density = direction_weight(&path.matrices, lobe, -k_in);
+                    let inv_density = direction_weight(&path.matrices, guide, -k_in);
                     match self.scattered(path, k_in, k_out, x, layer, inv_density, sampler) {
                         Some(next) => ray = next,
                         None => return,
@@ -230,10 +230,18 @@ impl Scene {
         })
     }
 
-    /// The lobe at `x` in tracked layer `layer`, where it is used.
-    fn sun_lobe(&self, x: DVec3, layer: usize) -> Option<SunLobe<'_>> {
-        let lobes = self.sun_lobes.as_ref()?;
-        Some(lobes.at(layer, self.geometry.up(x), self.sun.direction))
+    /// The guide at `x` in tracked layer `layer`, where one is used: the
+    /// lobe toward the sunlit air, or the lobe about the sun.
+    fn direction_guide(&self, x: DVec3, layer: usize) -> Option<DirectionGuide<'_>> {
+        match (&self.sun_lobes, self.sun_peak) {
+            (Some(lobes), _) => Some(DirectionGuide::SunLobe(lobes.at(
+                layer,
+                self.geometry.up(x),
+                self.sun.direction,
+            ))),
+            (None, Some(peak)) => Some(DirectionGuide::SunPeak(peak)),
+            (None, None) => None,
+        }
     }
 
     /// A ground vertex at `x` and the rest of the path from it (unsplit).
@@ -298,12 +306,12 @@ impl Scene {
 /// 1/(4π × the density) of the scattering direction whose propagation
 /// direction is `d` and whose channels' matrices are `matrices`: the mean
 /// of the channels' P11 (each channel's phase function picked alike), or
-/// with a sun lobe the mixture of that and the lobe.
-fn direction_weight(matrices: &[PhaseMatrix], lobe: Option<SunLobe>, d: DVec3) -> f64 {
+/// with a guide the mixture of that and the guide.
+fn direction_weight(matrices: &[PhaseMatrix], guide: Option<DirectionGuide>, d: DVec3) -> f64 {
     let sum = matrices.iter().map(|m| m.p11).sum::<f64>();
-    match lobe {
+    match guide {
         None => matrices.len() as f64 / sum,
-        Some(lobe) => lobe.inverse_mixture(sum / matrices.len() as f64, d),
+        Some(guide) => guide.inverse_mixture(sum / matrices.len() as f64, d),
     }
 }
 
