@@ -40,6 +40,9 @@ impl Scene {
             let hero = ((sampler.next_f64() * n as f64) as usize).min(n - 1);
             let levels = &self.track.levels_km;
             path.reset(n, levels.len(), self.basis_len, albedos, e1, hero);
+            // A path that starts on the ground (looking down from it) keeps
+            // the scene's threshold; one with a view flight scales it there.
+            path.roulette_threshold = self.settings.roulette_threshold;
             if spectra.sigma.is_empty() {
                 path.hero_sigma.clear();
                 path.hero_sigma
@@ -103,6 +106,9 @@ impl Scene {
             };
             if self.track.merged {
                 self.flight_residual(path, spectra, &ray, sampler);
+            }
+            if path.order == 0 {
+                path.set_view_roulette(self.settings.roulette_threshold);
             }
             // A forced flight toward a reflecting ground is split at the
             // sensor's first vertex, else analog.
@@ -220,7 +226,7 @@ impl Scene {
             };
         }
         path.frame_e1 = e1_in;
-        if !path.roulette(self.settings.roulette_threshold, sampler) {
+        if !path.roulette(sampler) {
             return None;
         }
         Some(Ray {
@@ -299,7 +305,7 @@ impl Scene {
         if self.order_done(path.order) {
             return false;
         }
-        path.roulette(self.settings.roulette_threshold, sampler)
+        path.roulette(sampler)
     }
 }
 
