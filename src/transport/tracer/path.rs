@@ -315,8 +315,8 @@ mod tests {
         for tau in [reference_tau, 1.0, 5.0, f64::INFINITY] {
             assert!((view_roulette_scale(tau) - 1.0).abs() < 1e-12, "τ {tau}");
         }
-        for tau in [0.02, 0.1, 0.3] {
-            let want = (1.0 - (-tau as f64).exp()) / VIEW_ROULETTE_REFERENCE;
+        for tau in [0.02_f64, 0.1, 0.3] {
+            let want: f64 = (1.0 - (-tau).exp()) / VIEW_ROULETTE_REFERENCE;
             assert!((view_roulette_scale(tau) - want).abs() < 1e-12, "τ {tau}");
         }
         assert_eq!(view_roulette_scale(0.0), VIEW_ROULETTE_MIN_SCALE);
