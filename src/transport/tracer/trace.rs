@@ -107,7 +107,9 @@ impl Scene {
             if self.track.merged {
                 self.flight_residual(path, spectra, &ray, sampler);
             }
-            if path.order == 0 {
+            // Thin views roulette later where sun connections are at
+            // collisions (`view_roulette_scale`).
+            if path.order == 0 && self.sun_follow.is_none() {
                 path.set_view_roulette(self.settings.roulette_threshold);
             }
             // A forced flight toward a reflecting ground is split at the
