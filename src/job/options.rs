@@ -58,7 +58,10 @@ pub struct Settings {
     pub first_vertex_splitting: bool,
     /// Effective throughput (mean over the channels, with the balance
     /// heuristic's denominator) below which Russian roulette starts, from
-    /// the second vertex on; a survivor carries this much.
+    /// the second vertex on; a survivor carries this much. By day (sun
+    /// connections at collisions) a path whose view is thin scales it down
+    /// by the view's chance to scatter (README, "Thin views roulette
+    /// later").
     pub roulette_threshold: f64,
 }
 

@@ -70,7 +70,9 @@
 //! a quarter turn apart, half the weight each), into a spare path kept
 //! per thread. After the second vertex, Russian roulette on the mean
 //! effective T₀₀ over the channels (survival min(1, T₀₀/r), r the job's
-//! `render.roulette_threshold`, 0.03 by default; the survivor divided by
+//! `render.roulette_threshold`, 0.03 by default, and where sun
+//! connections are at collisions scaled down for a thin view by its
+//! chance to scatter, `path::view_roulette_scale`; the survivor divided by
 //! it).
 //!
 //! **Channels** may be bands (`band_width_nm` > 0): each path draws its
