@@ -148,10 +148,48 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
     let tasks: Vec<&str> = text.lines().filter(|l| l.contains("(0 % pilot)")).collect();
     assert_eq!(tasks.len(), 3, "{text}");
     assert!(text.lines().last().unwrap().starts_with("grid_core_hours_per_task: "));
+    // A subset by name: the tasks containing a pattern, the last line over
+    // them; a pattern that matches none is refused before any work.
+    let out = atmosim()
+        .args([
+            "bench",
+            "--grid",
+            "--quick",
+            "--samples",
+            "4",
+            "--task",
+            "elev+90",
+            "--task",
+            "elev-01",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 1024x512")).collect();
+    assert_eq!(tasks.len(), 2, "{text}");
+    assert!(
+        tasks[0].starts_with("vis020.0_elev-01.0_alt00000m: ")
+            && tasks[1].starts_with("vis020.0_elev+90.0_alt00000m: "),
+        "{text}"
+    );
+    assert!(text.starts_with("grid benchmark: 2 tasks, "), "{text}");
+    let out = atmosim()
+        .args(["bench", "--grid", "--quick", "--task", "elev+45"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("`--task` = \"elev+45\"") && err.contains("vis020.0_elev+10.0_alt00000m"),
+        "{err}"
+    );
     // Only with --grid, and at least 2 samples.
     for args in [
         &["bench", "--samples", "4"][..],
         &["bench", "--grid", "--samples", "1"][..],
+        &["bench", "--task", "elev+90"][..],
     ] {
         let out = atmosim().args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -32,6 +32,11 @@ pub struct BenchArgs {
     /// follows: the fixed-sample figure to compare with).
     #[arg(long, requires = "grid", value_parser = clap::value_parser!(u64).range(2..=1_048_576))]
     samples: Option<u64>,
+    /// With --grid: only the tasks whose name contains PATTERN (repeat
+    /// for several; names as printed, e.g. `elev-04.2` or
+    /// `vis020.0_elev+10.0_alt15000m`); the last line is over those.
+    #[arg(long = "task", value_name = "PATTERN", requires = "grid")]
+    tasks: Vec<String>,
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
@@ -41,12 +46,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         ratios,
         grid,
         samples: fixed,
+        tasks,
     } = args;
     let pool = thread_pool(threads)?;
     if grid {
         // Unlocked: each task's line appears when it is done.
         let mut out = std::io::stdout();
-        pool.install(|| atmosim::run::grid_bench::run(quick, fixed, &mut out))?;
+        pool.install(|| atmosim::run::grid_bench::run(quick, fixed, &tasks, &mut out))?;
         return Ok(());
     }
     let samples = if quick { 20_000 } else { 400_000 };

@@ -49,7 +49,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::film::image::SkyImage;
 use crate::film::quantile::quantile;
-use crate::job::{Job, Sensor};
+use crate::job::{Job, Sensor, Task};
 use crate::run::assemble::image_result;
 use crate::run::shard::Shard;
 use crate::run::task::render_whole;
@@ -138,10 +138,35 @@ pub fn samples_factor(noise: &[BandNoise]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Renders the subset on the current rayon pool, to the benchmark's noise
+/// The tasks of `job` whose name contains one of `patterns` (all of them
+/// for none); a pattern that matches no task is an error naming the
+/// tasks there are.
+pub fn select_tasks<'a>(job: &'a Job, patterns: &[String]) -> Result<Vec<&'a Task>> {
+    if let Some(p) = patterns
+        .iter()
+        .find(|p| !job.tasks.iter().any(|t| t.name.contains(p.as_str())))
+    {
+        let names: Vec<&str> = job.tasks.iter().map(|t| t.name.as_str()).collect();
+        return Err(Error::InvalidValue {
+            file: "<command line>".into(),
+            key: "--task".into(),
+            value: format!("{p:?}"),
+            reason: "matches no task of the benchmark".into(),
+            valid: format!("a part of a task's name: {}", names.join(", ")),
+        });
+    }
+    Ok(job
+        .tasks
+        .iter()
+        .filter(|t| patterns.is_empty() || patterns.iter().any(|p| t.name.contains(p.as_str())))
+        .collect())
+}
+
+/// Renders the subset on the current rayon pool (its tasks whose name
+/// contains one of `patterns`, all for none), to the benchmark's noise
 /// target or with `fixed` samples per pixel, and writes the report; returns
 /// the mean and largest core-hours per task.
-pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64, f64)> {
+pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn Write) -> Result<(f64, f64)> {
     let samples = match fixed {
         Some(n) => format!("samples = {n}"),
         None => {
@@ -153,6 +178,7 @@ pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64,
     };
     let text = job_text(quick, &samples);
     let job = Job::parse(&text, "<grid benchmark>", std::path::Path::new("."))?;
+    let tasks = select_tasks(&job, patterns)?;
     let Sensor::Image(camera) = &job.render.sensor else {
         return Err(Error::data("<grid benchmark>", "the benchmark renders images"));
     };
@@ -169,11 +195,11 @@ pub fn run(quick: bool, fixed: Option<u64>, out: &mut dyn Write) -> Result<(f64,
         out,
         "grid benchmark: {} tasks, 64x32 full-sphere images to {how}, 11 bands of 40 nm, albedos 0 0.3 0.6 1, \
          {threads} threads; relative standard error of I per pixel, worst albedo > 0",
-        job.tasks.len()
+        tasks.len()
     )
     .map_err(io)?;
     let mut hours = Vec::new();
-    for task in &job.tasks {
+    for task in tasks {
         let start = Instant::now();
         let (layout, state) = render_whole(&job, task, &|_| {}, &|_| {})?;
         let core_seconds = start.elapsed().as_secs_f64() * threads;
