@@ -278,12 +278,35 @@ impl SeedRuns {
     /// of the depolarising ground seen from the ground has none): about 1
     /// where the reported standard errors are honest.
     pub fn pooled_spread(&self, s: usize) -> f64 {
-        let directions = self.tallies[0].len();
-        let ratios: Vec<f64> = (0..directions)
-            .filter(|&d| self.mean_and_se(d, s).1 > 0.0)
+        let ratios: Vec<f64> = self
+            .noisy_directions(s)
             .map(|d| self.spread_over_reported(d, s))
             .collect();
         (ratios.iter().sum::<f64>() / ratios.len() as f64).sqrt()
+    }
+
+    /// The directions where component `s` has noise.
+    fn noisy_directions(&self, s: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..self.tallies[0].len()).filter(move |&d| self.mean_and_se(d, s).1 > 0.0)
+    }
+
+    /// The interval that [`SeedRuns::pooled_spread`] of component `s`
+    /// falls in where the reported errors are honest, at a family-wise
+    /// false-alarm rate of 1 % over `family` such checks (Šidák). With n
+    /// seeds of Gaussian estimates, a direction's sample variance over its
+    /// variance is χ²(n − 1)/(n − 1), and the mean of D directions'
+    /// χ²(ν)/ν with ν = D·(n − 1) (the directions trace paths of their
+    /// own); its quantiles by Wilson–Hilferty, (1 − 2/(9ν) ± z·√(2/(9ν)))³,
+    /// and the pooled spread is the square root. The reported variance is
+    /// taken as exact: it is the mean of n renders' own estimates, each
+    /// from thousands of paths.
+    pub fn spread_window(&self, s: usize, family: usize) -> (f64, f64) {
+        let seeds = self.tallies.len() as f64;
+        let nu = self.noisy_directions(s).count() as f64 * (seeds - 1.0);
+        let z = sidak_threshold(family, 0.01);
+        let a = 2.0 / (9.0 * nu);
+        let bound = |sign: f64| (1.0 - a + sign * z * a.sqrt()).max(0.0).powi(3).sqrt();
+        (bound(-1.0), bound(1.0))
     }
 
     /// Variance of I per path times seconds per path, direction `d`.
