@@ -100,3 +100,16 @@ fn drawing_around_the_sun_keeps_the_radiance_and_honest_errors() {
         );
     }
 }
+
+/// The spread window's quantiles against published χ² tables: for 90
+/// degrees of freedom the 0.005 and 0.995 quantiles are 59.196 and 128.299
+/// (a single check at 1 %, two-sided).
+#[test]
+fn the_spread_window_matches_chi_square_tables() {
+    let (lo, hi) = common::spread_window(90.0, 1);
+    assert!((lo * lo * 90.0 - 59.196).abs() < 0.1, "{}", lo * lo * 90.0);
+    assert!((hi * hi * 90.0 - 128.299).abs() < 0.1, "{}", hi * hi * 90.0);
+    // More checks widen it.
+    let (lo4, hi4) = common::spread_window(90.0, 4);
+    assert!(lo4 < lo && hi4 > hi);
+}

@@ -302,11 +302,7 @@ impl SeedRuns {
     /// from thousands of paths.
     pub fn spread_window(&self, s: usize, family: usize) -> (f64, f64) {
         let seeds = self.tallies.len() as f64;
-        let nu = self.noisy_directions(s).count() as f64 * (seeds - 1.0);
-        let z = sidak_threshold(family, 0.01);
-        let a = 2.0 / (9.0 * nu);
-        let bound = |sign: f64| (1.0 - a + sign * z * a.sqrt()).max(0.0).powi(3).sqrt();
-        (bound(-1.0), bound(1.0))
+        spread_window(self.noisy_directions(s).count() as f64 * (seeds - 1.0), family)
     }
 
     /// Variance of I per path times seconds per path, direction `d`.
@@ -315,4 +311,14 @@ impl SeedRuns {
         let per_path_var = (se / mean).powi(2) * self.paths as f64;
         per_path_var * self.seconds / self.paths as f64
     }
+}
+
+/// The square roots of the bounds of χ²(ν)/ν at a two-sided 1 % level
+/// Šidák-corrected over `family` checks, by Wilson–Hilferty:
+/// (1 − 2/(9ν) ± z·√(2/(9ν)))³ ([`SeedRuns::spread_window`]).
+pub fn spread_window(nu: f64, family: usize) -> (f64, f64) {
+    let z = sidak_threshold(family, 0.01);
+    let a = 2.0 / (9.0 * nu);
+    let bound = |sign: f64| (1.0 - a + sign * z * a.sqrt()).max(0.0).powi(3).sqrt();
+    (bound(-1.0), bound(1.0))
 }
