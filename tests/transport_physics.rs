@@ -463,6 +463,62 @@ fn first_vertex_splitting_is_unbiased_and_cuts_polarisation_noise() {
 }
 
 #[test]
+fn a_noise_target_leaves_the_first_scattering_unsplit_and_unbiased() {
+    // Without the key, a noise target (of I) splits only the flight toward
+    // a reflecting ground, a fixed sample count both; the key given rules
+    // both either way.
+    let base = "[sun]\nelevation_deg = 30.0\n[spectrum]\nwavelengths_nm = [450.0]\n[ground]\nalbedo = 0.8\n";
+    for (keys, ground, scattering) in [
+        ("samples = 100", true, true),
+        ("noise_target = 0.01", true, false),
+        ("noise_target = 0.01\nfirst_vertex_splitting = true", true, true),
+        ("noise_target = 0.01\nfirst_vertex_splitting = false", false, false),
+        ("samples = 100\nfirst_vertex_splitting = false", false, false),
+    ] {
+        let s = job(&format!("{base}[render]\n{keys}\n")).render.settings;
+        assert_eq!(
+            (s.first_vertex_splitting, s.split_first_scattering),
+            (ground, scattering),
+            "{keys}"
+        );
+    }
+    // That estimator (the ground's split alone) against the analog first
+    // vertex, independent streams, looking up and down at a bright ground
+    // from inside a thin slab and from 2 km in the OPAC atmosphere: the
+    // same radiances (Sidak threshold over every direction and Stokes
+    // component).
+    let slab = "[planet]\ngeometry = \"plane_parallel\"\n[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 1.0\n\
+                tau_rayleigh = 0.1\nrayleigh_depolarization = 0.03\ntau_aerosol = 0.05\naerosol_ssa = 0.9\n\
+                aerosol_g = 0.7\n[sun]\nzenith_deg = 40.0\n";
+    let shells = "[atmosphere]\naerosol = \"continental_average\"\n[spectrum]\nwavelengths_nm = [450.0]\n\
+                  [sun]\nelevation_deg = 30.0\n";
+    let dirs: Vec<Direction> = directions(&[(0.0, 0.0), (84.0, 30.0), (96.0, 0.0), (120.0, 60.0), (170.0, 180.0)]);
+    let mut cmp = Comparison::default();
+    for (base, altitude) in [(slab, 0.5), (shells, 2.0)] {
+        let run = |keys: &str, seed: u64| {
+            let j = job(&format!("{base}[ground]\nalbedo = 0.8\n[render]\n{keys}\n"));
+            render_directions(&j.scene(0), altitude, &dirs, 20_000, seed, Render::channel(0, 0))
+        };
+        let (ground_split, analog) = (
+            run("noise_target = 0.01", 13),
+            run("first_vertex_splitting = false", 14),
+        );
+        for (d, (x, y)) in ground_split.iter().zip(&analog).enumerate() {
+            for s in 0..3 {
+                cmp.add(
+                    || format!("{altitude} km, direction {d}, Stokes {s}"),
+                    x.mean()[s],
+                    x.standard_error()[s],
+                    y.mean()[s],
+                    y.standard_error()[s],
+                );
+            }
+        }
+    }
+    cmp.assert_no_outlier("the ground's split alone vs the analog first vertex");
+}
+
+#[test]
 fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
     // The throughput reference case (spherical US-standard Rayleigh, albedo
     // 0.3, 12 directions) with every flight analog and no split — the

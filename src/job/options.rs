@@ -56,6 +56,12 @@ pub struct Settings {
     /// apart about the line of sight (`quarter_turn`), half the weight
     /// each.
     pub first_vertex_splitting: bool,
+    /// Of that split, the first scattering's two directions (with
+    /// `first_vertex_splitting`). By default on for fixed-sample renders
+    /// and off under a noise target, which counts I alone: the split cuts
+    /// the noise of Q and U most and costs I more time than it saves it
+    /// (README, "Noise targets", the first scattering unsplit).
+    pub split_first_scattering: bool,
     /// Effective throughput (mean over the channels, with the balance
     /// heuristic's denominator) below which Russian roulette starts, from
     /// the second vertex on; a survivor carries this much. By day (sun

@@ -338,6 +338,9 @@ pub(super) fn resolve(
                 RawSunSampling::Collision => SunSampling::Collision,
             },
             first_vertex_splitting: render.first_vertex_splitting.unwrap_or(true),
+            // Given, the key rules both; absent, a noise target (of I)
+            // leaves the first scattering unsplit.
+            split_first_scattering: render.first_vertex_splitting.unwrap_or(target.is_none()),
             roulette_threshold,
         },
         medium: match render.medium.unwrap_or(RawMedium::Layered) {

@@ -67,8 +67,9 @@
 //!
 //! **Splitting and roulette**: the sensor's first vertex is split (both
 //! ends of a flight toward a reflecting ground; two scattering directions
-//! a quarter turn apart, half the weight each), into a spare path kept
-//! per thread. After the second vertex, Russian roulette on the mean
+//! a quarter turn apart, half the weight each, except under a noise target
+//! of I without the key: `Settings::split_first_scattering`), into a spare
+//! path kept per thread. After the second vertex, Russian roulette on the mean
 //! effective T₀₀ over the channels (survival min(1, T₀₀/r), r the job's
 //! `render.roulette_threshold`, 0.03 by default, and where sun
 //! connections are at collisions scaled down for a thin view by its

@@ -84,7 +84,8 @@ impl Scene {
     /// vertex is split: a forced flight toward
     /// a reflecting ground follows both ends (the ground with weight
     /// e^(−τ_λ) at every λ, a decision taken for all wavelengths alike, so
-    /// no density changes; the collision forced), and the first scattering
+    /// no density changes; the collision forced), and, with
+    /// [`Settings::split_first_scattering`], the first scattering
     /// goes on in the sampled direction and its quarter turn, which every
     /// wavelength's phase function gives the same density.
     pub(super) fn trace(
@@ -175,7 +176,11 @@ impl Scene {
                         _ => path.mixtures[pick].sample_direction(k_out, sampler.next_f64(), sampler.next2(), tables),
                     };
                     matrices_at(&mut path.matrices, &path.mixtures, tables, k_in.dot(k_out));
-                    if let (1, Some(branch)) = (path.order, spare.as_deref_mut()) {
+                    let branch = match (path.order, self.settings.split_first_scattering) {
+                        (1, true) => spare.as_deref_mut(),
+                        _ => None,
+                    };
+                    if let Some(branch) = branch {
                         branch.branch_from(path);
                         branch.halve();
                         let k_branch = match guide {
