@@ -300,28 +300,19 @@ impl Scene {
         Some((c.t, c.layer))
     }
 
-    /// The current flight's segments into `path.segments`, and every basis
-    /// vector's depth at each one's start into `path.segment_tau`
-    /// (`path.ray` holds its exit; σ constant per layer); false for an
-    /// endless flight.
+    /// The current flight's segments into `path.segments` (`path.ray`
+    /// holds its exit; σ constant per layer); false for an endless flight.
+    /// The depths to a point along them are summed when a point is
+    /// connected (`sun_at_point`): a flight connects one point or a few,
+    /// and keeping every segment's depths cost about 7 % of a twilight
+    /// path's time (README, "Sun connections along shared paths").
     pub(super) fn flight_segments(&self, path: &mut Path, ray: &Ray) -> bool {
         let Path {
-            segments,
-            segment_tau,
-            point_basis,
-            ray: depths,
-            ..
+            segments, ray: depths, ..
         } = path;
         segments.clear();
-        segment_tau.clear();
-        point_basis.clear();
-        point_basis.resize(self.basis_len, 0.0);
         let push = |seg: Segment| {
             segments.push(seg);
-            segment_tau.extend_from_slice(point_basis);
-            if seg.t1.is_finite() {
-                self.accumulate(point_basis, seg.layer, seg.t1 - seg.t0);
-            }
             ControlFlow::<()>::Continue(())
         };
         match &depths.exit {

@@ -46,10 +46,8 @@ pub(super) struct Path {
     pub(super) forced: Vec<f64>,
     pub(super) mixtures: Vec<PhaseMixture>,
     pub(super) matrices: Vec<PhaseMatrix>,
-    /// Sun-aware connections along a flight: its segments, the basis
-    /// depths along it at each one's start, and the density.
+    /// Sun-aware connections along a flight: its segments and the density.
     pub(super) segments: Vec<Segment>,
-    pub(super) segment_tau: Vec<f64>,
     pub(super) density: FlightDensity,
     /// Per channel, the weight of a point connected to the sun off the
     /// collision (sun-aware or stratified), and the transmittance of the

@@ -36,12 +36,14 @@ impl Scene {
             // In the planet's shadow: it scores nothing.
             return;
         }
-        let b = self.basis_len;
         let seg = path.segments[i];
-        // Every channel's depth along the flight to the point.
+        // Every channel's depth along the flight to the point: the
+        // segments before it in order, then its own part.
         path.point_basis.clear();
-        path.point_basis
-            .extend_from_slice(&path.segment_tau[i * b..(i + 1) * b]);
+        path.point_basis.resize(self.basis_len, 0.0);
+        for s in &path.segments[..i] {
+            self.accumulate(&mut path.point_basis, s.layer, s.t1 - s.t0);
+        }
         self.accumulate(&mut path.point_basis, seg.layer, (t - seg.t0).max(0.0));
         Self::combine(spectra, &path.point_basis, &mut path.tau_hit);
         path.mixtures.clear();
