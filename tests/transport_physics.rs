@@ -503,17 +503,7 @@ fn a_noise_target_leaves_the_first_scattering_unsplit_and_unbiased() {
             run("noise_target = 0.01", 13),
             run("first_vertex_splitting = false", 14),
         );
-        for (d, (x, y)) in ground_split.iter().zip(&analog).enumerate() {
-            for s in 0..3 {
-                cmp.add(
-                    || format!("{altitude} km, direction {d}, Stokes {s}"),
-                    x.mean()[s],
-                    x.standard_error()[s],
-                    y.mean()[s],
-                    y.standard_error()[s],
-                );
-            }
-        }
+        cmp.add_tallies(&format!("{altitude} km,"), &ground_split, &analog);
     }
     cmp.assert_no_outlier("the ground's split alone vs the analog first vertex");
 }
