@@ -61,6 +61,11 @@ fn fisheye_job_writes_stokes_layers_with_errors_and_metadata() {
         assert_eq!(attr("task"), task);
         assert_eq!(attr("units"), "radiance per unit solar irradiance, 1/sr");
         assert!(attr("stokes_frame").starts_with("meridian: "));
+        assert_eq!(
+            attr("symmetry"),
+            "mirror: columns 0 to 5 are traced; column i >= 6 is the mirror image of column 11 - i (the sky is \
+             symmetric about the sun's vertical plane: I and Q the same, U and V negated)"
+        );
         assert_eq!(attr("samples_per_pixel"), "16");
         assert_eq!(attr("sun_elevation_deg"), "20");
         assert_eq!(attr("albedos"), "0 0.5");
@@ -136,10 +141,12 @@ fn plan_lists_every_task_with_its_cost() {
     assert!(text.contains("task,name,visibility_km,sun_elevation_deg,observer_altitude_km,paths,core_hours"));
     assert!(text.contains("0,vis030.0_elev+20.0_alt00000m,30.0,20.000,0,"));
     assert!(text.contains("1,vis060.0_elev+20.0_alt00000m"));
-    // 12×12 fisheye: the pixels reaching into the circle × 16 samples (the
-    // 2 wavelengths and the 2 albedos share the paths), costed at the rate
-    // of shared spectral paths.
+    // 12×12 fisheye: the pixels of its traced left half (the right half
+    // mirrors it) reaching into the circle × 16 samples (the 2 wavelengths
+    // and the 2 albedos share the paths), costed at the rate of shared
+    // spectral paths.
     let inside = (0..144)
+        .filter(|k| k % 12 < 6)
         .filter(|k| {
             let (i, j) = ((k % 12) as f64, (k / 12) as f64);
             (0..256).any(|s| {
@@ -220,6 +227,11 @@ fn bad_image_jobs_are_refused_before_anything_is_written() {
             "sensor.pixel_filter",
         ),
         ("[sensor]\nresolution = 32\n", "sensor.resolution"),
+        (
+            "[sensor]\ntype = \"directions\"\nsymmetry = \"none\"\n",
+            "sensor.symmetry",
+        ),
+        ("[sensor]\ntype = \"sphere\"\nsymmetry = \"rotation\"\n", "symmetry"),
         (
             "[sensor]\ntype = \"sphere\"\nhemisphere = \"down\"\n",
             "sensor.hemisphere",

@@ -150,7 +150,15 @@ fn albedos_the_target_leaves_out_allocate_nothing_and_are_still_reported() {
     // The pilot is the default (32): with 16, since noise targets leave the
     // first scattering unsplit, the noisiest row's median pixel came out 2
     // and 4 % above the target (0.0510, 0.0520), a small pilot missing the
-    // rare bright paths ("Noise targets", heavy tails).
+    // rare bright paths ("Noise targets", heavy tails). The allocation aims
+    // each pixel's noisiest value at the target from its neighbourhood's
+    // mean need, so the median pixel lands near the target, on either side:
+    // over seeds 1-8 of this job (the mirrored image, 64 pixels traced) the
+    // noisiest targeted row's median came out 0.0446-0.0505 (mean 0.0492,
+    // standard deviation 0.0019) counting every albedo and 0.0453-0.0503
+    // above 0 (every column traced: 0.0467-0.0511). So the check is 0.8 to
+    // 1.1 times the target, about 2.5 of those deviations from its mean
+    // either way.
     let job = |albedos: &str| {
         format!(
             "[spectrum]\nwavelengths_nm = [450.0, 600.0]\n[sun]\nelevation_deg = 25.0\n[observer]\naltitude_km = 5.0\n\
@@ -197,9 +205,11 @@ fn albedos_the_target_leaves_out_allocate_nothing_and_are_still_reported() {
             let targeted = !(left_out && r[1] == 0.0);
             assert_eq!(r[10], f64::from(u8::from(targeted)), "{r:?}");
             assert!(r[2] > 100.0, "{r:?}");
-            if targeted {
-                assert!(r[3] <= 0.05, "median {r:?}");
-            }
         }
+        let noisiest = rows.iter().filter(|r| r[10] == 1.0).map(|r| r[3]).fold(0.0, f64::max);
+        assert!(
+            (0.04..=0.055).contains(&noisiest),
+            "noisiest median {noisiest}: {rows:?}"
+        );
     }
 }

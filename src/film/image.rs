@@ -97,10 +97,13 @@ pub struct ActivePixels {
 }
 
 impl ActivePixels {
-    /// The active pixels of `camera` in its first `traced_rows` rows, from
-    /// its geometry (O(rows)); the rows below are not traced (they share
-    /// the ground view, see [`crate::run::layout::EstimateKind::GroundView`]).
-    pub fn new(camera: &Camera, traced_rows: usize) -> ActivePixels {
+    /// The active pixels of `camera` in its first `traced_rows` rows and
+    /// first `traced_columns` columns, from its geometry (O(rows)); the rows
+    /// below are not traced (they share the ground view, see
+    /// [`crate::run::layout::EstimateKind::GroundView`]), nor are the
+    /// columns to the right (the mirror images of those traced,
+    /// [`crate::sensor::symmetry`]).
+    pub fn new(camera: &Camera, traced_rows: usize, traced_columns: usize) -> ActivePixels {
         let (width, height) = camera.size();
         let columns: Vec<(usize, usize)> = (0..height)
             .map(|j| {
@@ -109,7 +112,8 @@ impl ActivePixels {
                 } else {
                     0..0
                 };
-                (c.start, c.end)
+                let end = c.end.min(traced_columns);
+                (c.start.min(end), end)
             })
             .collect();
         let mut before_row = Vec::with_capacity(height + 1);
@@ -159,7 +163,8 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
 }
 
 /// How pixels are sampled: the camera, the rows that are traced (from the
-/// top; those below share the ground view), the pixels' mean dΩ/dA, the
+/// top; those below share the ground view) and the columns (from the left;
+/// those to the right are mirror images), the pixels' mean dΩ/dA, the
 /// filter, the Stokes frame (and the sun's direction, which the sun–view
 /// frame needs), samples per pixel, the seed and render that key the
 /// pixels' streams, and whether they are a noise target's pilot (streams
@@ -168,6 +173,7 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
 pub struct PixelSampling<'a> {
     pub camera: &'a Camera,
     pub traced_rows: usize,
+    pub traced_columns: usize,
     pub weights: &'a [f64],
     pub filter: PixelFilter,
     pub frame: StokesFrame,
@@ -317,7 +323,8 @@ fn strata(samples: u64) -> u64 {
 
 /// Adds samples `range` (of the pixel's `total`, which set its strata) of
 /// one pixel to its `tallies`; false for a pixel entirely outside the
-/// image's circle (zero, no samples) or in a row that is not traced.
+/// image's circle (zero, no samples) or in a row or column that is not
+/// traced.
 fn render_pixel(
     sampling: &PixelSampling,
     (i, j): (usize, usize),
@@ -327,7 +334,7 @@ fn render_pixel(
     radiance: &impl Fn(glam::DVec3, glam::DVec3, &mut Sampler, &mut [Stokes]),
 ) -> bool {
     let weight = sampling.weights[index];
-    if weight <= 0.0 || j >= sampling.traced_rows {
+    if weight <= 0.0 || j >= sampling.traced_rows || i >= sampling.traced_columns {
         return false;
     }
     // The pixel's frame: its centre's, carried to each sample's direction.
@@ -427,14 +434,21 @@ mod tests {
             hemisphere: Hemisphere::Up,
             projection: Projection::Equidistant,
         };
-        let active = ActivePixels::new(&cam, 9);
         let weights = pixel_weights(&cam);
-        let is_active: Vec<bool> = weights.iter().map(|w| *w > 0.0).collect();
-        assert_eq!(active.count(), is_active.iter().filter(|a| **a).count() as u64);
-        let p = active.pixels();
-        for (a, b) in [(0, 1), (0, p), (5, 40), (40, 5 * p + 3), (p - 1, 3 * p + 1)] {
-            let brute = (a..b).filter(|n| is_active[(n % p) as usize]).count() as u64;
-            assert_eq!(active.paths(&(a..b)), brute, "{a}..{b}");
+        // Every column, and the five a mirror traces.
+        for columns in [9, 5] {
+            let active = ActivePixels::new(&cam, 9, columns);
+            let is_active: Vec<bool> = weights
+                .iter()
+                .enumerate()
+                .map(|(k, w)| *w > 0.0 && k % 9 < columns)
+                .collect();
+            assert_eq!(active.count(), is_active.iter().filter(|a| **a).count() as u64);
+            let p = active.pixels();
+            for (a, b) in [(0, 1), (0, p), (5, 40), (40, 5 * p + 3), (p - 1, 3 * p + 1)] {
+                let brute = (a..b).filter(|n| is_active[(n % p) as usize]).count() as u64;
+                assert_eq!(active.paths(&(a..b)), brute, "{a}..{b}");
+            }
         }
     }
 

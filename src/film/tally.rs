@@ -56,6 +56,17 @@ impl Tally {
         }
     }
 
+    /// The tally of the same samples seen in a mirror: U and V negated
+    /// (their sums; the sums of squares and counts unchanged), as the sky's
+    /// reflection about the sun's vertical plane turns them
+    /// ([`crate::sensor::symmetry`]).
+    pub fn mirrored(&self) -> Tally {
+        let mut t = *self;
+        t.sum[2] = -t.sum[2];
+        t.sum[3] = -t.sum[3];
+        t
+    }
+
     /// Mean per component (0 without samples).
     pub fn mean(&self) -> [f64; 4] {
         if self.samples == 0 {

@@ -202,6 +202,14 @@ pub(super) struct RawSensor {
     pub(super) projection: Option<RawProjection>,
     pub(super) pixel_filter: Option<RawPixelFilter>,
     pub(super) stokes_frame: Option<RawStokesFrame>,
+    pub(super) symmetry: Option<RawSymmetry>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawSymmetry {
+    Mirror,
+    None,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]

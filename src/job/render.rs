@@ -7,7 +7,7 @@ use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
     RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance,
-    RawTargetAlbedos, RawTrackingLayers, RawUnits,
+    RawSymmetry, RawTargetAlbedos, RawTrackingLayers, RawUnits,
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
@@ -17,6 +17,7 @@ use crate::job::options::{
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
+use crate::sensor::symmetry::Symmetry;
 
 /// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;
@@ -122,6 +123,9 @@ pub struct RenderSpec {
     /// The frame of the output Stokes vectors (per pixel: the frame of its
     /// centre, carried over the pixel).
     pub stokes_frame: StokesFrame,
+    /// Whether an image traces the half of its columns that the sky's
+    /// mirror symmetry does not give, or every column.
+    pub symmetry: Symmetry,
     /// Also estimate the fluxes at the observer level (`directions`).
     pub fluxes: bool,
     /// Samples per direction or pixel (with a noise target: the most any
@@ -237,6 +241,11 @@ pub(super) fn resolve(
         Some(RawStokesFrame::SunView) => StokesFrame::SunView,
     };
 
+    let symmetry = match sensor_raw.symmetry {
+        None | Some(RawSymmetry::Mirror) => Symmetry::Mirror,
+        Some(RawSymmetry::None) => Symmetry::None,
+    };
+
     let render = render.unwrap_or_default();
     let target = resolve_target(ctx, &render, &albedos)?;
     let samples = match target {
@@ -319,6 +328,7 @@ pub(super) fn resolve(
         sensor,
         pixel_filter,
         stokes_frame,
+        symmetry,
         fluxes: sensor_raw.fluxes.unwrap_or(true),
         samples,
         target,
@@ -456,11 +466,12 @@ fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Opti
 /// directions and no flux estimates).
 fn check_sensor_keys(ctx: &Ctx, kind: RawSensorKind, sensor: &RawSensor) -> Result<()> {
     let image = !matches!(kind, RawSensorKind::Directions);
-    let keys: [(&str, bool, bool); 8] = [
+    let keys: [(&str, bool, bool); 9] = [
         ("sensor.resolution", sensor.resolution.is_some(), true),
         ("sensor.hemisphere", sensor.hemisphere.is_some(), true),
         ("sensor.projection", sensor.projection.is_some(), true),
         ("sensor.pixel_filter", sensor.pixel_filter.is_some(), true),
+        ("sensor.symmetry", sensor.symmetry.is_some(), true),
         ("sensor.view_zenith_deg", sensor.view_zenith_deg.is_some(), false),
         ("sensor.azimuth_deg", sensor.azimuth_deg.is_some(), false),
         ("sensor.directions", sensor.directions.is_some(), false),

@@ -29,6 +29,7 @@
 use crate::film::ground_view::GROUND_VIEW_SAMPLES;
 use crate::film::tally::Tally;
 use crate::job::NoiseTarget;
+use crate::sensor::symmetry::Symmetry;
 
 /// A targeted estimate's samples: per direction or flux, or per pixel (0
 /// for a pixel that is not traced).
@@ -87,16 +88,26 @@ pub fn single(tallies: &[Tally], target: &NoiseTarget, counted: &[bool]) -> u64 
 
 /// The allocation of an image of `width` pixels a row from its pilot's
 /// tallies (`values` per pixel, pixel-major): each traced pixel takes the
-/// mean of what it and its traced neighbours need; untraced pixels (no
-/// pilot samples) get none.
-pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarget, counted: &[bool]) -> Vec<u64> {
+/// mean of what it and its traced neighbours need, a neighbour in a column
+/// that `symmetry` mirrors standing for its mirror image; untraced pixels
+/// (no pilot samples, or mirrored) get none.
+pub fn pixels(
+    tallies: &[Tally],
+    values: usize,
+    width: usize,
+    symmetry: Symmetry,
+    target: &NoiseTarget,
+    counted: &[bool],
+) -> Vec<u64> {
     let values = values.max(1);
     let count = tallies.len() / values;
-    let traced: Vec<bool> = (0..count).map(|p| tallies[p * values].samples > 0).collect();
+    let width = width.max(1);
+    let traced: Vec<bool> = (0..count)
+        .map(|p| tallies[p * values].samples > 0 && symmetry.source_column(width, p % width).is_none())
+        .collect();
     let need: Vec<f64> = (0..count)
         .map(|p| needed(&tallies[p * values..(p + 1) * values], target.relative_se, counted))
         .collect();
-    let width = width.max(1);
     let height = count / width;
     (0..count)
         .map(|p| {
@@ -111,7 +122,7 @@ pub fn pixels(tallies: &[Tally], values: usize, width: usize, target: &NoiseTarg
                     if x < 0 || y < 0 || x >= width as i64 || y >= height as i64 {
                         continue;
                     }
-                    let q = y as usize * width + x as usize;
+                    let q = y as usize * width + symmetry.traced_column(width, x as usize);
                     if traced[q] {
                         sum += need[q];
                         count += 1.0;
@@ -171,8 +182,34 @@ mod tests {
         t[5] = noisy;
         t[11] = Tally::default();
         let target = NoiseTarget { pilot: 16, ..TARGET };
-        let n = pixels(&t, 1, 4, &target, ALL);
+        let n = pixels(&t, 1, 4, Symmetry::None, &target, ALL);
         assert_eq!(n, vec![34, 23, 23, 16, 23, 16, 17, 16, 34, 23, 27, 0]);
+    }
+
+    #[test]
+    fn a_mirrored_image_allocates_its_traced_half_as_the_whole_symmetric_one() {
+        // 4 × 3 pixels whose pilot is mirror-symmetric (column i as column
+        // 3 − i), one noisy pixel and its mirror image: traced alone, the
+        // left half takes what the whole image gives it, the right none.
+        let noisy = tally(&[0.0, 4.0, 0.0, 4.0]);
+        let flat = tally(&[1.0, 1.0, 1.0, 1.0]);
+        let mut whole = vec![flat; 12];
+        whole[5] = noisy;
+        whole[6] = noisy;
+        let mut half = whole.clone();
+        for row in half.chunks_mut(4) {
+            row[2] = Tally::default();
+            row[3] = Tally::default();
+        }
+        let target = NoiseTarget { pilot: 16, ..TARGET };
+        let full = pixels(&whole, 1, 4, Symmetry::None, &target, ALL);
+        let mirrored = pixels(&half, 1, 4, Symmetry::Mirror, &target, ALL);
+        for p in 0..12 {
+            assert_eq!(mirrored[p], if p % 4 < 2 { full[p] } else { 0 }, "pixel {p}");
+        }
+        // A pilot traced in every column allocates nothing to the mirrored ones.
+        let again = pixels(&whole, 1, 4, Symmetry::Mirror, &target, ALL);
+        assert_eq!(again, mirrored);
     }
 
     #[test]
@@ -191,6 +228,6 @@ mod tests {
         let half = tally(&[1.0, 3.0, 1.0, 3.0]);
         let values = [noisy, half, noisy, half];
         assert!((needed(&values, 0.1, &[false, true]) - 100.0 / 3.0).abs() < 1e-9);
-        assert_eq!(pixels(&values, 4, 1, &TARGET, &[false, true]), vec![34]);
+        assert_eq!(pixels(&values, 4, 1, Symmetry::None, &TARGET, &[false, true]), vec![34]);
     }
 }

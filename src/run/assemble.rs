@@ -130,9 +130,11 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
 }
 
 /// Per image estimate (its channels), the tallies `[value][pixel]` of
-/// every pixel and the count of non-finite samples; the pixels of the rows
-/// that are not traced (below the horizon of an observer on the ground)
-/// hold the ground view's tallies, those outside a fisheye's circle none.
+/// every pixel and the count of non-finite samples; the pixels of the
+/// columns that are not traced hold the mirror images of their partners'
+/// ([`crate::sensor::symmetry`]), those of the rows that are not traced
+/// (below the horizon of an observer on the ground) the ground view's,
+/// those outside a fisheye's circle none.
 fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Channels, Vec<Vec<Tally>>, u64)> {
     let (width, height) = camera.size();
     let ground: Vec<(Channels, &Vec<Tally>)> = layout
@@ -148,6 +150,15 @@ fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Ch
             continue;
         };
         let (mut per_value, mut non_finite) = image::split_values(tallies, est.values);
+        for j in 0..layout.traced_rows.min(height) {
+            for i in camera.active_columns(j) {
+                if let Some(source) = layout.symmetry.source_column(width, i) {
+                    for list in per_value.iter_mut() {
+                        list[j * width + i] = list[j * width + source].mirrored();
+                    }
+                }
+            }
+        }
         if let Some((_, view)) = ground.iter().find(|(c, _)| *c == channels) {
             for j in layout.traced_rows..height {
                 for i in camera.active_columns(j) {

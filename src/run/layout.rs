@@ -16,6 +16,7 @@ use crate::job::{Job, NoiseTarget, Sensor, Task};
 use crate::run::allocation::{self, Allocation};
 use crate::run::shard::Shard;
 use crate::sampling::stream::{self, Channels, Render, StreamKey};
+use crate::sensor::symmetry::Symmetry;
 
 /// What an estimate measures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,6 +85,12 @@ pub struct Layout {
     /// observer stands on the ground: then the rows below the horizon share
     /// the ground view, [`EstimateKind::GroundView`]).
     pub traced_rows: usize,
+    /// The image columns that are traced, from the left (all of them, or
+    /// with `sensor.symmetry = "mirror"` the half whose mirror images are
+    /// the rest: [`crate::sensor::symmetry`]).
+    pub traced_columns: usize,
+    /// The sky's symmetry an image uses.
+    pub symmetry: Symmetry,
     /// True when the wavelengths share their paths.
     pub shared: bool,
     /// The spectral groups of shared paths (channel indices; one group of
@@ -117,7 +124,7 @@ impl Layout {
         let (nw, na) = (job.wavelengths_nm.len(), spec.albedos.len());
         let seed = spec.seed;
         let mut estimates = Vec::new();
-        let (mut pixels, mut active, mut traced_rows) = (0, None, 0);
+        let (mut pixels, mut active, mut traced_rows, mut traced_columns) = (0, None, 0, 0);
         // The channel sets with paths of their own: every channel alone,
         // all of them along shared paths, or each spectral group.
         let groups = if shared { job.spectral_groups(task) } else { Vec::new() };
@@ -195,7 +202,8 @@ impl Layout {
             }
             Sensor::Image(camera) => {
                 traced_rows = ground_view::traced_rows(camera, task);
-                let traced = ActivePixels::new(camera, traced_rows);
+                traced_columns = spec.symmetry.traced_columns(camera.size().0);
+                let traced = ActivePixels::new(camera, traced_rows, traced_columns);
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
                 let channel_sets: Vec<Channels> = match shared {
@@ -256,6 +264,8 @@ impl Layout {
             pixels,
             active,
             traced_rows,
+            traced_columns,
+            symmetry: spec.symmetry,
             shared,
             groups,
             wave_paths: 1 << 15,
@@ -294,6 +304,7 @@ impl Layout {
                     tallies,
                     self.estimates[e].values,
                     self.width,
+                    self.symmetry,
                     &target,
                     &self.counted_albedos,
                 )),

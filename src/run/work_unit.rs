@@ -251,6 +251,7 @@ fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::
             let sampling = PixelSampling {
                 camera,
                 traced_rows: layout.traced_rows,
+                traced_columns: layout.traced_columns,
                 weights,
                 filter: job.render.pixel_filter,
                 frame: job.render.stokes_frame,
