@@ -34,7 +34,9 @@
 //! target scales every pixel's allocation by the same factor) and that a
 //! pixel of a finer image costs what a pixel of this one does at the same
 //! samples (the box filter averages over the pixel; per-path cost does not
-//! depend on the pixel's size); the pilot's cost per pixel does not scale.
+//! depend on the pixel's size), and that an image of either size traces
+//! its left half and mirrors it (`sensor.symmetry`, the default); the
+//! pilot's cost per pixel does not scale.
 //! The core-seconds are split between pilot and allocated samples by their
 //! paths. The last line is `grid_core_hours_per_task: <mean> <max>` over
 //! the tasks.
