@@ -231,7 +231,7 @@ fn bad_image_jobs_are_refused_before_anything_is_written() {
             "[sensor]\ntype = \"directions\"\nsymmetry = \"none\"\n",
             "sensor.symmetry",
         ),
-        ("[sensor]\ntype = \"sphere\"\nsymmetry = \"rotation\"\n", "symmetry"),
+        ("[sensor]\ntype = \"sphere\"\nsymmetry = \"half\"\n", "symmetry"),
         (
             "[sensor]\ntype = \"sphere\"\nhemisphere = \"down\"\n",
             "sensor.hemisphere",

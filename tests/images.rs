@@ -304,3 +304,75 @@ fn mirrored_columns_are_the_traced_ones_seen_in_a_mirror() {
         assert!(polarised >= 1, "{sensor}: no pixel with |U| above 5 standard errors");
     }
 }
+
+#[test]
+fn with_the_sun_at_the_zenith_every_column_is_the_first_one_turned() {
+    // `symmetry = "auto"` (the default) traces one column of an
+    // equirectangular image under a sun at the zenith and copies it to
+    // every other: that column bit for bit what a render of every column
+    // gives it, and the other columns, traced with independent paths,
+    // in agreement with it (Q strongly polarised, so a frame that did not
+    // turn with the azimuth would be caught).
+    for (sensor, observer_km) in [
+        ("type = \"sphere\"\nresolution = [16, 8]\n", 2.0),
+        (
+            "type = \"panorama\"\nresolution = [9, 6]\nstokes_frame = \"sun_view\"\n",
+            0.0,
+        ),
+    ] {
+        let render = |symmetry: &str| {
+            let (j, cam) = camera_of(&format!(
+                "{}[observer]\naltitude_km = {observer_km}\n[sensor]\n{sensor}symmetry = \"{symmetry}\"\n\
+                 [render]\nsamples = 600\nseed = 4\n",
+                SKY.replace("elevation_deg = 25.0", "elevation_deg = 90.0")
+            ));
+            let (layout, state) = atmosim::run::task::render_whole(&j, &j.tasks[0], &|_| {}, &|_| {}).unwrap();
+            let image = atmosim::run::assemble::image_result(&j, &cam, &layout, &state);
+            (cam, layout, image)
+        };
+        let (cam, all, every) = render("none");
+        let (_, one, turned) = render("auto");
+        assert_eq!(one.symmetry, atmosim::sensor::symmetry::Symmetry::Rotation);
+        assert_eq!(one.traced_columns, 1);
+        let (w, _) = cam.size();
+        let whole = atmosim::run::shard::Shard::WHOLE;
+        let traced_rows = all.traced_rows as u64;
+        assert_eq!(one.paths(whole), all.paths(whole) - 600 * traced_rows * (w as u64 - 1));
+        let (a, b) = (&every.layers[0], &turned.layers[0]);
+        let mut cmp = Comparison::default();
+        let mut polarised = 0;
+        for j in 0..all.traced_rows {
+            let first = j * w;
+            for k in 0..4 {
+                assert_eq!((a.mean[k][first], a.se[k][first]), (b.mean[k][first], b.se[k][first]));
+            }
+            for i in 1..w {
+                let p = j * w + i;
+                for k in 0..4 {
+                    assert_eq!(
+                        (b.mean[k][p], b.se[k][p]),
+                        (b.mean[k][first], b.se[k][first]),
+                        "{sensor} ({i}, {j})"
+                    );
+                }
+                for k in 0..3 {
+                    cmp.add(
+                        || format!("{sensor} ({i}, {j}) Stokes {k}"),
+                        b.mean[k][p],
+                        b.se[k][p],
+                        a.mean[k][p],
+                        a.se[k][p],
+                    );
+                }
+                if (a.mean[1][p] / (a.se[1][p].powi(2) + b.se[1][p].powi(2)).sqrt()).abs() > 10.0 {
+                    polarised += 1;
+                }
+            }
+        }
+        cmp.assert_no_outlier(&format!("turned against traced columns, {sensor}"));
+        assert!(
+            polarised >= 10,
+            "{sensor}: {polarised} pixels with |Q| above 10 standard errors"
+        );
+    }
+}

@@ -174,7 +174,10 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
             PixelFilter::Box => "box: mean radiance over the pixel's solid angle (stratified jitter)".into(),
             PixelFilter::Center => "center: radiance of the pixel centre's direction".into(),
         }),
-        ("symmetry".into(), spec.symmetry.describe(camera.size().0)),
+        ("symmetry".into(), spec
+            .symmetry
+            .resolve(camera, task.sun.zenith_deg)
+            .describe(camera.size().0)),
         ("layers".into(), "<wavelength>nm_a<albedo x 100>, e.g. 540nm_a030; channels I Q U V and I_se Q_se U_se V_se (standard errors of the mean)".into()),
         ("units".into(), units.into()),
         ("stokes_frame".into(), format!(

@@ -208,6 +208,7 @@ pub(super) struct RawSensor {
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub(super) enum RawSymmetry {
+    Auto,
     Mirror,
     None,
 }

@@ -17,7 +17,7 @@ use crate::job::options::{
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
 use crate::sensor::direction::Direction;
-use crate::sensor::symmetry::Symmetry;
+use crate::sensor::symmetry::SymmetryChoice;
 
 /// Default samples per direction or pixel.
 pub const DEFAULT_SAMPLES: u64 = 100_000;
@@ -123,9 +123,9 @@ pub struct RenderSpec {
     /// The frame of the output Stokes vectors (per pixel: the frame of its
     /// centre, carried over the pixel).
     pub stokes_frame: StokesFrame,
-    /// Whether an image traces the half of its columns that the sky's
-    /// mirror symmetry does not give, or every column.
-    pub symmetry: Symmetry,
+    /// Which of the sky's symmetries an image may use to trace fewer
+    /// columns (resolved per task: [`SymmetryChoice::resolve`]).
+    pub symmetry: SymmetryChoice,
     /// Also estimate the fluxes at the observer level (`directions`).
     pub fluxes: bool,
     /// Samples per direction or pixel (with a noise target: the most any
@@ -242,8 +242,9 @@ pub(super) fn resolve(
     };
 
     let symmetry = match sensor_raw.symmetry {
-        None | Some(RawSymmetry::Mirror) => Symmetry::Mirror,
-        Some(RawSymmetry::None) => Symmetry::None,
+        None | Some(RawSymmetry::Auto) => SymmetryChoice::Auto,
+        Some(RawSymmetry::Mirror) => SymmetryChoice::Mirror,
+        Some(RawSymmetry::None) => SymmetryChoice::None,
     };
 
     let render = render.unwrap_or_default();

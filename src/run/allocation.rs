@@ -89,8 +89,8 @@ pub fn single(tallies: &[Tally], target: &NoiseTarget, counted: &[bool]) -> u64 
 /// The allocation of an image of `width` pixels a row from its pilot's
 /// tallies (`values` per pixel, pixel-major): each traced pixel takes the
 /// mean of what it and its traced neighbours need, a neighbour in a column
-/// that `symmetry` mirrors standing for its mirror image; untraced pixels
-/// (no pilot samples, or mirrored) get none.
+/// that `symmetry` copies standing for its source; untraced pixels (no
+/// pilot samples, or copied) get none.
 pub fn pixels(
     tallies: &[Tally],
     values: usize,

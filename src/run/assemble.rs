@@ -132,7 +132,8 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
 /// Per image estimate (its channels), the tallies `[value][pixel]` of
 /// every pixel and the count of non-finite samples; the pixels of the
 /// columns that are not traced hold the mirror images of their partners'
-/// ([`crate::sensor::symmetry`]), those of the rows that are not traced
+/// or their rotations' ([`crate::sensor::symmetry`]), those of the rows
+/// that are not traced
 /// (below the horizon of an observer on the ground) the ground view's,
 /// those outside a fisheye's circle none.
 fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Channels, Vec<Vec<Tally>>, u64)> {
@@ -154,7 +155,8 @@ fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Ch
             for i in camera.active_columns(j) {
                 if let Some(source) = layout.symmetry.source_column(width, i) {
                     for list in per_value.iter_mut() {
-                        list[j * width + i] = list[j * width + source].mirrored();
+                        let t = list[j * width + source];
+                        list[j * width + i] = if layout.symmetry.negates_u_v() { t.mirrored() } else { t };
                     }
                 }
             }

@@ -28,15 +28,18 @@
 //! 0) and to 1024×512:
 //!
 //! core-hours = (allocated core-seconds × max_b max(median_b/0.005, p99_b/0.02)²
-//!               + pilot core-seconds) × (1024·512)/(64·32) / 3600,
+//!               + pilot core-seconds) × P_1024×512 / P_64×32 / 3600,
 //!
-//! assuming that a pixel's relative error falls as 1/√samples (a noise
-//! target scales every pixel's allocation by the same factor) and that a
-//! pixel of a finer image costs what a pixel of this one does at the same
-//! samples (the box filter averages over the pixel; per-path cost does not
-//! depend on the pixel's size), and that an image of either size traces
-//! its left half and mirrors it (`sensor.symmetry`, the default); the
-//! pilot's cost per pixel does not scale.
+//! P the pixels an image of that size traces (`sensor.symmetry`, the
+//! default "auto": the left half, the mirror, so the ratio is
+//! (1024·512)/(64·32) = 256, but with the sun at the zenith one column,
+//! 512/32 = 16; the rows below the horizon of an observer on the ground
+//! share the ground view at both sizes), assuming that a pixel's relative
+//! error falls as 1/√samples (a noise target scales every pixel's
+//! allocation by the same factor) and that a traced pixel of a finer image
+//! costs what one of this image does at the same samples (the box filter
+//! averages over the pixel; per-path cost does not depend on the pixel's
+//! size); the pilot's cost per pixel does not scale with the factor.
 //! The core-seconds are split between pilot and allocated samples by their
 //! paths. The last line is `grid_core_hours_per_task: <mean> <max>` over
 //! the tasks.
@@ -49,12 +52,15 @@ use std::io::Write;
 use std::time::Instant;
 
 use crate::error::{Error, Result};
-use crate::film::image::SkyImage;
+use crate::film::ground_view;
+use crate::film::image::{ActivePixels, SkyImage};
 use crate::film::quantile::quantile;
 use crate::job::{Job, Sensor, Task};
 use crate::run::assemble::image_result;
 use crate::run::shard::Shard;
 use crate::run::task::render_whole;
+use crate::sensor::camera::Camera;
+use crate::sensor::symmetry::Symmetry;
 
 /// The noise target: median and 99th percentile of the per-pixel relative
 /// standard error of I.
@@ -62,7 +68,19 @@ pub const TARGET_MEDIAN: f64 = 0.005;
 pub const TARGET_P99: f64 = 0.02;
 
 /// The full-size image the figures are scaled to.
-const FULL_PIXELS: f64 = 1024.0 * 512.0;
+const FULL_SIZE: [usize; 2] = [1024, 512];
+
+/// The pixels a full-size image of `task` traces with `symmetry`: half of
+/// them with the mirror (the rows above the horizon alone for an observer
+/// on the ground), one column's with the rotation.
+fn full_size_traced(task: &Task, symmetry: Symmetry) -> f64 {
+    let camera = Camera::Sphere {
+        width: FULL_SIZE[0],
+        height: FULL_SIZE[1],
+    };
+    let rows = ground_view::traced_rows(&camera, task);
+    ActivePixels::new(&camera, rows, symmetry.traced_columns(FULL_SIZE[0])).count() as f64
+}
 
 /// The noise target the benchmark renders to, its pilot and its cap.
 pub const BENCH_TARGET: f64 = 0.05;
@@ -185,7 +203,6 @@ pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn W
         return Err(Error::data("<grid benchmark>", "the benchmark renders images"));
     };
     let threads = rayon::current_num_threads() as f64;
-    let pixels = 64.0 * 32.0;
     let io = |e: std::io::Error| Error::io(std::path::Path::new("<stdout>"), e);
     let how = match fixed {
         Some(n) => format!("{n} samples per pixel"),
@@ -213,9 +230,10 @@ pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn W
         let factor = samples_factor(&noise);
         let (pilot, allocated) = layout.paths_by_stage(Shard::WHOLE);
         let pilot_share = pilot as f64 / (pilot + allocated).max(1) as f64;
-        let h = core_seconds * ((1.0 - pilot_share) * factor + pilot_share) * FULL_PIXELS / pixels / 3600.0;
-        hours.push(h);
         let traced = layout.active.as_ref().map_or(1, |a| a.count().max(1));
+        let scale = full_size_traced(task, layout.symmetry) / traced as f64;
+        let h = core_seconds * ((1.0 - pilot_share) * factor + pilot_share) * scale / 3600.0;
+        hours.push(h);
         let bands: Vec<String> = noise
             .iter()
             .map(|b| format!("{:.0}: {:.3}/{:.3}", b.wavelength_nm, b.median, b.p99))
@@ -271,5 +289,19 @@ mod tests {
         assert_eq!(job.tasks.len(), 3);
         let job = Job::parse(&job_text(false, "noise_target = 0.1"), "t", std::path::Path::new(".")).unwrap();
         assert_eq!(job.tasks.len(), 24);
+    }
+
+    #[test]
+    fn the_full_size_image_traces_what_its_symmetry_leaves() {
+        // From the ground the rows above the horizon (256 of 512), from
+        // 15 km all of them; the mirror half of the 1024 columns, or one.
+        let job = Job::parse(&job_text(false, "samples = 4"), "t", std::path::Path::new(".")).unwrap();
+        let task = |name: &str| job.tasks.iter().find(|t| t.name == name).unwrap();
+        let ground = task("vis020.0_elev+10.0_alt00000m");
+        let high = task("vis020.0_elev+10.0_alt15000m");
+        assert_eq!(full_size_traced(ground, Symmetry::Mirror), 512.0 * 256.0);
+        assert_eq!(full_size_traced(high, Symmetry::Mirror), 512.0 * 512.0);
+        assert_eq!(full_size_traced(high, Symmetry::None), 1024.0 * 512.0);
+        assert_eq!(full_size_traced(ground, Symmetry::Rotation), 256.0);
     }
 }

@@ -85,11 +85,11 @@ pub struct Layout {
     /// observer stands on the ground: then the rows below the horizon share
     /// the ground view, [`EstimateKind::GroundView`]).
     pub traced_rows: usize,
-    /// The image columns that are traced, from the left (all of them, or
-    /// with `sensor.symmetry = "mirror"` the half whose mirror images are
-    /// the rest: [`crate::sensor::symmetry`]).
+    /// The image columns that are traced, from the left (all of them, the
+    /// half whose mirror images are the rest, or the first, whose rotations
+    /// are the rest: [`crate::sensor::symmetry`]).
     pub traced_columns: usize,
-    /// The sky's symmetry an image uses.
+    /// The sky's symmetry an image uses (`Symmetry::None` for directions).
     pub symmetry: Symmetry,
     /// True when the wavelengths share their paths.
     pub shared: bool,
@@ -125,6 +125,7 @@ impl Layout {
         let seed = spec.seed;
         let mut estimates = Vec::new();
         let (mut pixels, mut active, mut traced_rows, mut traced_columns) = (0, None, 0, 0);
+        let mut symmetry = Symmetry::None;
         // The channel sets with paths of their own: every channel alone,
         // all of them along shared paths, or each spectral group.
         let groups = if shared { job.spectral_groups(task) } else { Vec::new() };
@@ -202,7 +203,8 @@ impl Layout {
             }
             Sensor::Image(camera) => {
                 traced_rows = ground_view::traced_rows(camera, task);
-                traced_columns = spec.symmetry.traced_columns(camera.size().0);
+                symmetry = spec.symmetry.resolve(camera, task.sun.zenith_deg);
+                traced_columns = symmetry.traced_columns(camera.size().0);
                 let traced = ActivePixels::new(camera, traced_rows, traced_columns);
                 pixels = traced.pixels() as usize;
                 active = Some(traced);
@@ -265,7 +267,7 @@ impl Layout {
             active,
             traced_rows,
             traced_columns,
-            symmetry: spec.symmetry,
+            symmetry,
             shared,
             groups,
             wave_paths: 1 << 15,
