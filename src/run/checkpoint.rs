@@ -4,16 +4,19 @@
 //! Both carry the job text, so `merge` needs nothing but the output
 //! directory, and both are written atomically (temporary file, rename).
 //!
-//! Format (little-endian), version 4 (version 1 counted an image's work in
+//! Format (little-endian), version 5 (version 1 counted an image's work in
 //! samples per pixel, version 2 in items, see [`crate::film::image::ActivePixels`];
 //! version 3 has the layout of 2, and marks sums made since OPAC aerosol
 //! scatters by Mie phase matrices by default, so that no unit mixes them
 //! with Henyey–Greenstein sums of the same job text; version 4 marks the
 //! layouts in which an image seen from the ground shares the ground view,
 //! [`crate::film::ground_view`], and whose pixels below the horizon are not
-//! traced):
+//! traced; version 5 those in which an image traces the columns its
+//! symmetry leaves, [`crate::sensor::symmetry`]: version 4 files are read
+//! for `directions` sensors, which did not change, and refused for images,
+//! whose noise target would allocate its samples over other pixels):
 //! ```text
-//! "ATMOSIM-STATE-4\n"                       16 bytes
+//! "ATMOSIM-STATE-5\n"                       16 bytes
 //! job hash, job file, job directory, job text: each u64 length + UTF-8,
 //!                                           zero-padded to whole 8-byte words
 //! task, shard index, shard count            3 × u64
@@ -36,8 +39,10 @@ use crate::io::atomic::write_atomic_with;
 use crate::run::layout::UnitState;
 use crate::run::shard::Shard;
 
-const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-4\n";
-/// The headers of the previous formats, refused with their own messages.
+const MAGIC: &[u8; 16] = b"ATMOSIM-STATE-5\n";
+/// The header of the previous format, read for `directions` sensors.
+const MAGIC_V4: &[u8; 16] = b"ATMOSIM-STATE-4\n";
+/// The headers of the older formats, refused with their own messages.
 const MAGIC_V1: &[u8; 16] = b"ATMOSIM-STATE-1\n";
 const MAGIC_V2: &[u8; 16] = b"ATMOSIM-STATE-2\n";
 const MAGIC_V3: &[u8; 16] = b"ATMOSIM-STATE-3\n";
@@ -108,7 +113,8 @@ impl StateFile {
                  the unit again",
             ));
         }
-        if bytes.len() < MAGIC.len() + 8 || &bytes[..MAGIC.len()] != MAGIC {
+        let v4 = bytes.starts_with(MAGIC_V4);
+        if bytes.len() < MAGIC.len() + 8 || (&bytes[..MAGIC.len()] != MAGIC && !v4) {
             return Err(bad("no atmosim state header"));
         }
         let (body, tail) = bytes.split_at(bytes.len() - 8);
@@ -153,6 +159,18 @@ impl StateFile {
             }
             tallies.push(list);
         }
+        if v4 {
+            let image = Job::parse(&job_text, &job_file, &job_dir).map_or(true, |job| {
+                !matches!(job.render.sensor, crate::job::Sensor::Directions(_))
+            });
+            if image {
+                return Err(bad(
+                    "written by an older atmosim (state format 4), whose images traced every column (now the \
+                     columns the sky's symmetry leaves, sensor.symmetry); finish it with that version, or render \
+                     the unit again",
+                ));
+            }
+        }
         Ok(StateFile {
             job_file,
             job_dir,
@@ -185,7 +203,7 @@ pub fn job_hash_of(path: &Path) -> Option<String> {
         .take((MAGIC.len() + 8 + 64) as u64)
         .read_to_end(&mut head)
         .ok()?;
-    if !head.starts_with(MAGIC) {
+    if !head.starts_with(MAGIC) && !head.starts_with(MAGIC_V4) {
         return None;
     }
     Reader {
@@ -361,6 +379,38 @@ mod tests {
         bytes[..16].copy_from_slice(MAGIC_V1);
         let e = StateFile::from_bytes(&bytes, "x").unwrap_err().to_string();
         assert!(e.contains("state format 1"), "{e}");
+    }
+
+    /// The bytes of `f` as format 4 wrote them (the same layout under its
+    /// header, the checksum over that header).
+    fn as_format_4(f: &StateFile) -> Vec<u8> {
+        let mut bytes = f.to_bytes();
+        bytes[..16].copy_from_slice(MAGIC_V4);
+        let n = bytes.len() - 8;
+        let sum = fnv::words(&bytes[..n]);
+        bytes[n..].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn format_4_states_are_read_for_directions_and_refused_for_images() {
+        // Directions did not change: such a checkpoint resumes. An image's
+        // would allocate over the columns it no longer traces.
+        let directions = sample();
+        assert_eq!(
+            StateFile::from_bytes(&as_format_4(&directions), "x").unwrap(),
+            directions
+        );
+        let mut image = sample();
+        image.job_text = "[sensor]\ntype = \"sphere\"\nresolution = 8\n[render]\nsamples = 5\n".into();
+        let e = StateFile::from_bytes(&as_format_4(&image), "x")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("state format 4") && e.contains("sensor.symmetry"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.state");
+        std::fs::write(&path, as_format_4(&directions)).unwrap();
+        assert_eq!(job_hash_of(&path).as_deref(), Some("0123456789abcdef"));
     }
 
     #[test]
