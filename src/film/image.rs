@@ -101,8 +101,8 @@ impl ActivePixels {
     /// first `traced_columns` columns, from its geometry (O(rows)); the rows
     /// below are not traced (they share the ground view, see
     /// [`crate::run::layout::EstimateKind::GroundView`]), nor are the
-    /// columns to the right (the mirror images of those traced,
-    /// [`crate::sensor::symmetry`]).
+    /// columns to the right (copies of those traced: mirror images, or
+    /// rotations under a sun at the zenith, [`crate::sensor::symmetry`]).
     pub fn new(camera: &Camera, traced_rows: usize, traced_columns: usize) -> ActivePixels {
         let (width, height) = camera.size();
         let columns: Vec<(usize, usize)> = (0..height)
@@ -164,7 +164,7 @@ fn samples_below(p: u64, pixels: u64, x: u64) -> u64 {
 
 /// How pixels are sampled: the camera, the rows that are traced (from the
 /// top; those below share the ground view) and the columns (from the left;
-/// those to the right are mirror images), the pixels' mean dΩ/dA, the
+/// those to the right are copies of them), the pixels' mean dΩ/dA, the
 /// filter, the Stokes frame (and the sun's direction, which the sun–view
 /// frame needs), samples per pixel, the seed and render that key the
 /// pixels' streams, and whether they are a noise target's pilot (streams
