@@ -160,6 +160,10 @@ fn plan_lists_every_task_with_its_cost() {
         .count();
     assert!(text.contains(&format!(",{},", inside * 16)), "{inside}: {text}");
     assert!(text.contains("shared spectral paths/s per core"), "{text}");
+    assert!(
+        text.contains("each 12x12 image (its left half traced, the mirror), 2 wavelengths"),
+        "{text}"
+    );
     // Without shared paths each wavelength has its own.
     let text = plan(
         "separate.toml",
