@@ -214,6 +214,35 @@ fn pixels_below_the_horizon_of_an_observer_on_the_ground_share_the_ground_view()
     cmp.assert_no_outlier("ground view against downward directions");
 }
 
+/// The camera, layout and image of the first task of the job `text`,
+/// rendered whole.
+fn whole_image(text: &str) -> (Camera, atmosim::run::layout::Layout, atmosim::film::image::SkyImage) {
+    let (j, cam) = camera_of(text);
+    let (layout, state) = atmosim::run::task::render_whole(&j, &j.tasks[0], &|_| {}, &|_| {}).unwrap();
+    let image = atmosim::run::assemble::image_result(&j, &cam, &layout, &state);
+    (cam, layout, image)
+}
+
+/// Adds I, Q and U of pixel `p` of layer `a` against the same pixel of
+/// layer `b` (independent paths) to `cmp`.
+fn add_pixel(
+    cmp: &mut Comparison,
+    label: &str,
+    a: &atmosim::film::image::ImageLayer,
+    b: &atmosim::film::image::ImageLayer,
+    p: usize,
+) {
+    for k in 0..3 {
+        cmp.add(
+            || format!("{label} Stokes {k}"),
+            a.mean[k][p],
+            a.se[k][p],
+            b.mean[k][p],
+            b.se[k][p],
+        );
+    }
+}
+
 #[test]
 fn mirrored_columns_are_the_traced_ones_seen_in_a_mirror() {
     // `sensor.symmetry = "mirror"` (the default) traces the left half of an
@@ -239,13 +268,10 @@ fn mirrored_columns_are_the_traced_ones_seen_in_a_mirror() {
         ),
     ] {
         let render = |symmetry: &str| {
-            let (j, cam) = camera_of(&format!(
+            whole_image(&format!(
                 "{SKY}[observer]\naltitude_km = {observer_km}\n[sensor]\n{sensor}symmetry = \"{symmetry}\"\n\
                  [render]\nsamples = 600\nseed = 3\n"
-            ));
-            let (layout, state) = atmosim::run::task::render_whole(&j, &j.tasks[0], &|_| {}, &|_| {}).unwrap();
-            let image = atmosim::run::assemble::image_result(&j, &cam, &layout, &state);
-            (cam, layout, image)
+            ))
         };
         let (cam, all, every) = render("none");
         let (_, half, mirrored) = render("mirror");
@@ -282,15 +308,7 @@ fn mirrored_columns_are_the_traced_ones_seen_in_a_mirror() {
                     assert_eq!(b.mean[k][p], sign * b.mean[k][q], "{sensor} ({i}, {j}) Stokes {k}");
                     assert_eq!(b.se[k][p], b.se[k][q]);
                 }
-                for k in 0..3 {
-                    cmp.add(
-                        || format!("{sensor} ({i}, {j}) Stokes {k}"),
-                        b.mean[k][p],
-                        b.se[k][p],
-                        a.mean[k][p],
-                        a.se[k][p],
-                    );
-                }
+                add_pixel(&mut cmp, &format!("{sensor} ({i}, {j})"), b, a, p);
                 let u_z = a.mean[2][p] / (a.se[2][p].powi(2) + b.se[2][p].powi(2)).sqrt();
                 if u_z.abs() > 5.0 {
                     polarised += 1;
@@ -321,14 +339,11 @@ fn with_the_sun_at_the_zenith_every_column_is_the_first_one_turned() {
         ),
     ] {
         let render = |symmetry: &str| {
-            let (j, cam) = camera_of(&format!(
+            whole_image(&format!(
                 "{}[observer]\naltitude_km = {observer_km}\n[sensor]\n{sensor}symmetry = \"{symmetry}\"\n\
                  [render]\nsamples = 600\nseed = 4\n",
                 SKY.replace("elevation_deg = 25.0", "elevation_deg = 90.0")
-            ));
-            let (layout, state) = atmosim::run::task::render_whole(&j, &j.tasks[0], &|_| {}, &|_| {}).unwrap();
-            let image = atmosim::run::assemble::image_result(&j, &cam, &layout, &state);
-            (cam, layout, image)
+            ))
         };
         let (cam, all, every) = render("none");
         let (_, one, turned) = render("auto");
@@ -355,15 +370,7 @@ fn with_the_sun_at_the_zenith_every_column_is_the_first_one_turned() {
                         "{sensor} ({i}, {j})"
                     );
                 }
-                for k in 0..3 {
-                    cmp.add(
-                        || format!("{sensor} ({i}, {j}) Stokes {k}"),
-                        b.mean[k][p],
-                        b.se[k][p],
-                        a.mean[k][p],
-                        a.se[k][p],
-                    );
-                }
+                add_pixel(&mut cmp, &format!("{sensor} ({i}, {j})"), b, a, p);
                 if (a.mean[1][p] / (a.se[1][p].powi(2) + b.se[1][p].powi(2)).sqrt()).abs() > 10.0 {
                     polarised += 1;
                 }
