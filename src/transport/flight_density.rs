@@ -410,9 +410,9 @@ mod tests {
                 let mean = sum / n as f64;
                 let se = ((sum_sq / n as f64 - mean * mean) / (n as f64 - 1.0)).sqrt();
                 let len = s.t1 - s.t0;
-                // 4.5 standard errors: two-sided, Šidák over 16 values at 1e-4.
+                // 4.52 standard errors: two-sided, Šidák over 16 values at 1e-4.
                 assert!(
-                    (mean - len).abs() < 4.5 * se,
+                    (mean - len).abs() < 4.52 * se,
                     "segment {}: {mean} ± {se} against {len}",
                     s.layer
                 );
