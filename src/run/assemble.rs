@@ -133,9 +133,8 @@ pub fn image_result(job: &Job, camera: &Camera, layout: &Layout, state: &UnitSta
 /// every pixel and the count of non-finite samples; the pixels of the
 /// columns that are not traced hold the mirror images of their partners'
 /// or their rotations' ([`crate::sensor::symmetry`]), those of the rows
-/// that are not traced
-/// (below the horizon of an observer on the ground) the ground view's,
-/// those outside a fisheye's circle none.
+/// that are not traced (below the horizon of an observer on the ground)
+/// the ground view's, those outside a fisheye's circle none.
 fn pixel_tallies(camera: &Camera, layout: &Layout, state: &UnitState) -> Vec<(Channels, Vec<Vec<Tally>>, u64)> {
     let (width, height) = camera.size();
     let ground: Vec<(Channels, &Vec<Tally>)> = layout

@@ -21,9 +21,8 @@ use crate::run::layout::{EstimateKind, Layout, Stage};
 use crate::run::shard::Shard;
 use crate::run::work_unit::{self, Control};
 use crate::sampling::stream::{Channels, Render};
-use crate::sensor::camera::Camera;
 use crate::sensor::direction::Direction;
-use crate::sensor::symmetry::SymmetryChoice;
+use crate::sensor::symmetry::{self, SymmetryChoice};
 
 /// Paths of one task (shared spectral paths and single-wavelength paths)
 /// at `rates` (whose pilot says what a noise target allocates).
@@ -253,9 +252,8 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
         Sensor::Directions(d) => format!("{} directions", d.len()),
         Sensor::Image(c) => {
             let (w, h) = c.size();
-            let equirectangular = matches!(c, Camera::Sphere { .. } | Camera::Panorama { .. });
             let traced = match job.render.symmetry {
-                SymmetryChoice::Auto if equirectangular => {
+                SymmetryChoice::Auto if symmetry::rotates(c) => {
                     " (its left half traced, the mirror; one column under a sun at the zenith)"
                 }
                 SymmetryChoice::Auto | SymmetryChoice::Mirror => " (its left half traced, the mirror)",

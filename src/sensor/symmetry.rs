@@ -32,13 +32,18 @@ pub enum SymmetryChoice {
     None,
 }
 
+/// Whether a sun at the zenith makes the columns of `camera`'s images
+/// rotations of one another (an equirectangular image: sphere, panorama).
+pub fn rotates(camera: &Camera) -> bool {
+    matches!(camera, Camera::Sphere { .. } | Camera::Panorama { .. })
+}
+
 impl SymmetryChoice {
     /// The symmetry an image of `camera` uses with the sun `sun_zenith_deg`
     /// from the zenith.
     pub fn resolve(self, camera: &Camera, sun_zenith_deg: f64) -> Symmetry {
-        let equirectangular = matches!(camera, Camera::Sphere { .. } | Camera::Panorama { .. });
         match self {
-            SymmetryChoice::Auto if equirectangular && sun_zenith_deg == 0.0 => Symmetry::Rotation,
+            SymmetryChoice::Auto if rotates(camera) && sun_zenith_deg == 0.0 => Symmetry::Rotation,
             SymmetryChoice::Auto | SymmetryChoice::Mirror => Symmetry::Mirror,
             SymmetryChoice::None => Symmetry::None,
         }
