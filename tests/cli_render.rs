@@ -185,11 +185,36 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
         err.contains("`--task` = \"elev+45\"") && err.contains("vis020.0_elev+10.0_alt00000m"),
         "{err}"
     );
+    // The seed: 1 by default, named in the header; another seed renders
+    // other paths (the figures differ), the same seed the same ones.
+    let noise_of = |seed: Option<&str>| {
+        let mut args = vec!["bench", "--grid", "--quick", "--samples", "4", "--task", "elev-01"];
+        if let Some(seed) = seed {
+            args.extend(["--seed", seed]);
+        }
+        let out = atmosim().args(&args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8(out.stdout).unwrap();
+        let seed = seed.unwrap_or("1");
+        assert!(
+            text.lines().next().unwrap().contains(&format!(", seed {seed}, ")),
+            "{text}"
+        );
+        // The task's noise figures, without its timings.
+        let line = text.lines().find(|l| l.contains("core-hours at 1024x512")).unwrap();
+        let start = line.find("median/p99").unwrap();
+        line[start..line.find("; to target").unwrap()].to_string()
+    };
+    let default = noise_of(None);
+    assert_eq!(noise_of(Some("1")), default);
+    assert_ne!(noise_of(Some("2")), default);
     // Only with --grid, and at least 2 samples.
     for args in [
         &["bench", "--samples", "4"][..],
         &["bench", "--grid", "--samples", "1"][..],
         &["bench", "--task", "elev+90"][..],
+        &["bench", "--seed", "2"][..],
+        &["bench", "--grid", "--seed", "-1"][..],
     ] {
         let out = atmosim().args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -37,6 +37,11 @@ pub struct BenchArgs {
     /// `vis020.0_elev+10.0_alt15000m`); the last line is over those.
     #[arg(long = "task", value_name = "PATTERN", requires = "grid")]
     tasks: Vec<String>,
+    /// With --grid: the render seed (`render.seed`) of every task, 1 by
+    /// default; another seed renders other paths, so a comparison can be
+    /// repeated on independent realisations.
+    #[arg(long, requires = "grid", default_value_t = 1)]
+    seed: u64,
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
@@ -47,12 +52,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         grid,
         samples: fixed,
         tasks,
+        seed,
     } = args;
     let pool = thread_pool(threads)?;
     if grid {
         // Unlocked: each task's line appears when it is done.
         let mut out = std::io::stdout();
-        pool.install(|| atmosim::run::grid_bench::run(quick, fixed, &tasks, &mut out))?;
+        pool.install(|| atmosim::run::grid_bench::run(quick, fixed, seed, &tasks, &mut out))?;
         return Ok(());
     }
     let samples = if quick { 20_000 } else { 400_000 };

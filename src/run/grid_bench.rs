@@ -88,8 +88,8 @@ const BENCH_PILOT: u64 = 64;
 const BENCH_MAX_SAMPLES: u64 = 16384;
 
 /// The benchmark's job: the subset (or the quick one) at `samples` (the
-/// `[render]` keys of its sample count).
-pub fn job_text(quick: bool, samples: &str) -> String {
+/// `[render]` keys of its sample count), rendered with `seed`.
+pub fn job_text(quick: bool, samples: &str, seed: u64) -> String {
     let (suns, visibilities, observers) = if quick {
         ("[-1.0, 10.0, 90.0]", "[20.0]", "[0.0]")
     } else {
@@ -105,7 +105,7 @@ pub fn job_text(quick: bool, samples: &str) -> String {
          [observer]\naltitude_km = {observers}\n\
          [ground]\nalbedo = [0.0, 0.3, 0.6, 1.0]\n\
          [sensor]\ntype = \"sphere\"\nresolution = [64, 32]\n\
-         [render]\n{samples}\npolarized = true\nseed = 1\n"
+         [render]\n{samples}\npolarized = true\nseed = {seed}\n"
     )
 }
 
@@ -184,9 +184,9 @@ pub fn select_tasks<'a>(job: &'a Job, patterns: &[String]) -> Result<Vec<&'a Tas
 
 /// Renders the subset on the current rayon pool (its tasks whose name
 /// contains one of `patterns`, all for none), to the benchmark's noise
-/// target or with `fixed` samples per pixel, and writes the report; returns
-/// the mean and largest core-hours per task.
-pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn Write) -> Result<(f64, f64)> {
+/// target or with `fixed` samples per pixel, with render seed `seed`, and
+/// writes the report; returns the mean and largest core-hours per task.
+pub fn run(quick: bool, fixed: Option<u64>, seed: u64, patterns: &[String], out: &mut dyn Write) -> Result<(f64, f64)> {
     let samples = match fixed {
         Some(n) => format!("samples = {n}"),
         None => {
@@ -196,7 +196,7 @@ pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn W
             )
         }
     };
-    let text = job_text(quick, &samples);
+    let text = job_text(quick, &samples, seed);
     let job = Job::parse(&text, "<grid benchmark>", std::path::Path::new("."))?;
     let tasks = select_tasks(&job, patterns)?;
     let Sensor::Image(camera) = &job.render.sensor else {
@@ -213,7 +213,7 @@ pub fn run(quick: bool, fixed: Option<u64>, patterns: &[String], out: &mut dyn W
     writeln!(
         out,
         "grid benchmark: {} tasks, 64x32 full-sphere images to {how}, 11 bands of 40 nm, albedos 0 0.3 0.6 1, \
-         {threads} threads; relative standard error of I per pixel, worst albedo > 0",
+         seed {seed}, {threads} threads; relative standard error of I per pixel, worst albedo > 0",
         tasks.len()
     )
     .map_err(io)?;
@@ -285,9 +285,14 @@ mod tests {
         assert_eq!(noise.len(), 1);
         assert_eq!((noise[0].median, noise[0].p99), (0.01, 0.06));
         assert!((samples_factor(&noise) - 9.0).abs() < 1e-12);
-        let job = Job::parse(&job_text(true, "samples = 4"), "t", std::path::Path::new(".")).unwrap();
+        let job = Job::parse(&job_text(true, "samples = 4", 1), "t", std::path::Path::new(".")).unwrap();
         assert_eq!(job.tasks.len(), 3);
-        let job = Job::parse(&job_text(false, "noise_target = 0.1"), "t", std::path::Path::new(".")).unwrap();
+        let job = Job::parse(
+            &job_text(false, "noise_target = 0.1", 1),
+            "t",
+            std::path::Path::new("."),
+        )
+        .unwrap();
         assert_eq!(job.tasks.len(), 24);
     }
 
@@ -295,7 +300,7 @@ mod tests {
     fn the_full_size_image_traces_what_its_symmetry_leaves() {
         // From the ground the rows above the horizon (256 of 512), from
         // 15 km all of them; the mirror half of the 1024 columns, or one.
-        let job = Job::parse(&job_text(false, "samples = 4"), "t", std::path::Path::new(".")).unwrap();
+        let job = Job::parse(&job_text(false, "samples = 4", 1), "t", std::path::Path::new(".")).unwrap();
         let task = |name: &str| job.tasks.iter().find(|t| t.name == name).unwrap();
         let ground = task("vis020.0_elev+10.0_alt00000m");
         let high = task("vis020.0_elev+10.0_alt15000m");
