@@ -208,7 +208,7 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
     let default = noise_of(None);
     assert_eq!(noise_of(Some("1")), default);
     assert_ne!(noise_of(Some("2")), default);
-    // Only with --grid, and at least 2 samples.
+    // Only with --grid, at least 2 samples, a seed that is a u64.
     for args in [
         &["bench", "--samples", "4"][..],
         &["bench", "--grid", "--samples", "1"][..],
