@@ -21,7 +21,7 @@ use crate::transport::medium::Medium;
 
 /// Optical depth given to sun rays that hit the planet (the density must
 /// stay positive where the table is only approximate).
-const BLOCKED_DEPTH: f64 = 60.0;
+pub const BLOCKED_DEPTH: f64 = 60.0;
 const MU_NODES: usize = 129;
 
 /// Approximate optical depth toward the sun. A table may hold several
