@@ -434,8 +434,9 @@ fn bend(
     (ray, segments, depth, sun): Context,
 ) -> Option<(usize, [f64; MAX_FOLLOWED])> {
     // The depth can only dip that far below the mean where the mean is
-    // above SPLIT_DEVIATION, and not between two points the planet hides
-    // the sun from (its shadow is convex).
+    // above SPLIT_DEVIATION; and not between two points at the blocked
+    // depth: the planet's shadow is convex, and elsewhere that depth
+    // leaves nothing to draw.
     let dips = |t: &Terms| {
         let mean = 0.5 * (t.sun0 + t.sun1);
         mean > SPLIT_DEVIATION && t.sun0.min(t.sun1) < BLOCKED_DEPTH
