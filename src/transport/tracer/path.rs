@@ -116,6 +116,32 @@ pub(super) struct SunFollow {
     /// centre wavelengths (whether the sun lobe serves them with the sun
     /// up, `sun_lobe`).
     pub(super) max_column: f64,
+    /// Where the aerosol scatters by tables: its P11 per layer and
+    /// followed channel (aerosol alone, the layer's middle, the channel's
+    /// centre wavelength) at [`AEROSOL_ANGLES`] scattering angles from 0
+    /// to 180° (`[(layer·K + k)·AEROSOL_ANGLES + a]`); empty otherwise.
+    pub(super) aerosol_p11: Vec<f64>,
+}
+
+/// The scattering angles of [`SunFollow::aerosol_p11`]: every 0.25°.
+pub(super) const AEROSOL_ANGLES: usize = 721;
+
+impl SunFollow {
+    /// The grid position of scattering-angle cosine `cos_theta` in
+    /// [`SunFollow::aerosol_p11`]: its lower node and the fraction on.
+    pub(super) fn aerosol_angle(cos_theta: f64) -> (usize, f64) {
+        let x = cos_theta.clamp(-1.0, 1.0).acos() * ((AEROSOL_ANGLES - 1) as f64 / std::f64::consts::PI);
+        let a = (x as usize).min(AEROSOL_ANGLES - 2);
+        (a, x - a as f64)
+    }
+
+    /// The aerosol's tabulated P11 in `layer` for followed channel `k` of
+    /// `followed`, at grid position `(a, f)` ([`SunFollow::aerosol_angle`]).
+    #[inline]
+    pub(super) fn aerosol_p11_at(&self, layer: usize, k: usize, followed: usize, (a, f): (usize, f64)) -> f64 {
+        let row = &self.aerosol_p11[(layer * followed + k) * AEROSOL_ANGLES..];
+        row[a] + (row[a + 1] - row[a]) * f
+    }
 }
 
 /// A thread's reusable state: the path, the spare the path's first vertex

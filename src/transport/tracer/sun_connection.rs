@@ -160,12 +160,19 @@ impl Scene {
         let s0 = self.sun.direction;
         let cos0 = (-s0).dot(-ray.dir);
         // Rayleigh's and the aerosol's P11 at the sun's centre per followed
-        // channel, recomputed only when the parameters change; the
-        // aerosol's by Henyey–Greenstein with its g even where it scatters
-        // by Mie tables (this only shapes the density the point is drawn
-        // from, which the contributions are divided by).
+        // channel: Rayleigh's recomputed only when its depolarisation
+        // changes; the aerosol's from its tables where it has them
+        // (`SunFollow::aerosol_p11`), else by Henyey–Greenstein with its g,
+        // recomputed when g changes. This only shapes the density the point
+        // is drawn from, which the contributions are divided by. (Until
+        // 2026-11-27 Henyey–Greenstein stood in for the tables too: its
+        // forward peak is several times lower, and twilight paths that
+        // scatter sunlight forward toward the sensor were drawn too rarely;
+        // README, "Sun connections along shared paths".)
         let mut rayleigh = [(f64::NAN, 0.0); 2];
         let mut aerosol = [(f64::NAN, 0.0); 2];
+        let tabulated = !follow.aerosol_p11.is_empty();
+        let angle = SunFollow::aerosol_angle(cos0);
         let optics = |_: usize, seg: &Segment| {
             let len = seg.t1 - seg.t0;
             let mut o = [(0.0, 0.0); 2];
@@ -176,7 +183,9 @@ impl Scene {
                     rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
                 }
                 let mut sca = c.sigma_rayleigh * rayleigh[k].1;
-                if c.sigma_aerosol_sca > 0.0 {
+                if c.sigma_aerosol_sca > 0.0 && tabulated {
+                    sca += c.sigma_aerosol_sca * follow.aerosol_p11_at(seg.layer, k, nk, angle);
+                } else if c.sigma_aerosol_sca > 0.0 {
                     if aerosol[k].0 != c.aerosol_g {
                         let g = c.aerosol_g;
                         aerosol[k] = (g, PhaseFunction::HenyeyGreenstein { g }.p11(cos0));
