@@ -296,10 +296,7 @@ impl FlightDensity {
             let t = terms_of(&self.terms, j);
             match bends.next_if(|b| b.0 == j) {
                 Some(&(_, bend)) => split(&mut out, nk, piece, t, bend, ctx, 1),
-                None => {
-                    out.0.push(piece);
-                    out.1.extend_from_slice(&t[..nk]);
-                }
+                None => keep(&mut out, nk, piece, &t),
             }
         }
         self.spare_pieces = std::mem::replace(&mut self.pieces, pieces);
@@ -531,12 +528,15 @@ fn split(
             .flatten();
         match next {
             Some(bend) => split(out, nk, half, t, bend, ctx, halvings + 1),
-            None => {
-                out.0.push(half);
-                out.1.extend_from_slice(&t[..nk]);
-            }
+            None => keep(out, nk, half, &t),
         }
     }
+}
+
+/// Adds `piece` with its `terms` to `out` as it is.
+fn keep(out: &mut (&mut Vec<Piece>, &mut Vec<Terms>), nk: usize, piece: Piece, terms: &[Terms; MAX_FOLLOWED]) {
+    out.0.push(piece);
+    out.1.extend_from_slice(&terms[..nk]);
 }
 
 /// The most change of ln(σ_s·P11) over one piece the density follows.
