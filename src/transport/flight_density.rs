@@ -1,8 +1,10 @@
 //! The density from which sun-aware connections draw one point along a
 //! whole flight (`spectral`).
 //!
-//! It follows up to two channels (one for a single wavelength). Each
-//! followed channel's density is a defensive mixture:
+//! It follows up to two channels (one for a single wavelength), the
+//! less extinct first, drawn from with shares 1 − s and s
+//! ([`MOST_EXTINCT_SHARE`]). Each followed channel's density is a
+//! defensive mixture:
 //! - with share α, q_sun ∝ c̄·e^(−τ)·e^(−τ̃_sun);
 //! - with share 1 − α, q_flight ∝ c̄·e^(−τ).
 //!
@@ -59,6 +61,18 @@ const MAX_HALVINGS: u32 = 3;
 
 /// The most channels a density follows.
 pub const MAX_FOLLOWED: usize = 2;
+
+/// The share of the draws from the second followed channel, the more
+/// extinct one (channels are followed least extinct first), where both
+/// can be drawn from; the first gets the rest. Of a spectral group's
+/// bands the most extinct is the noisiest in most of the sky model grid's
+/// tasks (320-360 nm in every task of `bench --grid`, whose ozone makes
+/// its sunlit air the least like the others'), and a point drawn for the
+/// less extinct channel serves it little. Measured on 2026-11-28
+/// (README, "Sun connections along shared paths"): the grid's twelve
+/// sun-aware tasks 4-5 % cheaper than with equal shares at two seeds
+/// (0.85: the least extinct channel's noise grew too far).
+pub const MOST_EXTINCT_SHARE: f64 = 0.7;
 
 /// One segment's optics for each followed channel: its optical depth and
 /// its σ_s·P11 at the sun's centre.
@@ -371,7 +385,19 @@ impl FlightDensity {
             return None;
         }
         let np = self.pieces.len();
-        let k = usable[((sampler.next_f64() * usable.len() as f64) as usize).min(usable.len() - 1)];
+        // The followed channel's share of the draws.
+        let share = |k: usize| match (usable.len(), k) {
+            (1, _) => 1.0,
+            (_, 0) => 1.0 - MOST_EXTINCT_SHARE,
+            _ => MOST_EXTINCT_SHARE,
+        };
+        let k = match usable {
+            [only] => {
+                sampler.next_f64();
+                *only
+            }
+            _ => usize::from(sampler.next_f64() < MOST_EXTINCT_SHARE),
+        };
         let from_sun = alpha == 1.0 || sampler.next_f64() < alpha;
         let weight_of = |t: &Terms| if from_sun { t.sun_integral } else { t.flight_integral };
         let mut target = sampler.next_f64() * if from_sun { self.totals[k].0 } else { self.totals[k].1 };
@@ -413,10 +439,11 @@ impl FlightDensity {
         for &k in usable {
             let t = &self.terms[j * nk + k];
             let (sun_total, flight_total, _) = self.totals[k];
-            pdf += alpha * t.sun_integral / sun_total * inside(t.tau + t.sun1 - t.sun0 - t.gc)
-                + (1.0 - alpha) * t.flight_integral / flight_total * inside(t.tau - t.gc);
+            pdf += share(k)
+                * (alpha * t.sun_integral / sun_total * inside(t.tau + t.sun1 - t.sun0 - t.gc)
+                    + (1.0 - alpha) * t.flight_integral / flight_total * inside(t.tau - t.gc));
         }
-        pdf /= usable.len() as f64 * len;
+        pdf /= len;
         (pdf > 0.0 && pdf.is_finite()).then_some(Point { t, segment, pdf })
     }
 }
@@ -590,6 +617,51 @@ mod tests {
             // Šidák over both flights' 16 segments at 1e-4.
             assert_draws_carry_their_density(&density, &segments, 16);
         }
+    }
+
+    /// The same with two followed channels, the second twenty times as
+    /// extinct (its density far nearer the flight's start), drawn from
+    /// with their shares ([`MOST_EXTINCT_SHARE`]): a pdf that took equal
+    /// shares fails it (segment 0: the mean of 1/pdf 1.202 ± 0.004
+    /// against its length 1.155).
+    #[test]
+    fn two_followed_channels_draw_with_their_shares() {
+        let levels: Vec<f64> = (0..=8).map(|i| i as f64).collect();
+        let sigma: Vec<f64> = (0..8).map(|i| 0.4 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+        let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
+        let c = [0.1; 8];
+        let sun = DVec3::new(-0.6, 0.0, 0.8);
+        let depth = SunDepth::of_profiles(
+            &levels,
+            &[sigma.clone(), extinct.clone()],
+            &Geometry::PlaneParallel,
+            sun,
+            false,
+        );
+        let dir = DVec3::new(0.5, 0.0, 0.75f64.sqrt());
+        let ray = Ray {
+            origin: DVec3::ZERO,
+            dir,
+            layer: 0,
+        };
+        let segments: Vec<Segment> = (0..8)
+            .map(|i| Segment {
+                t0: i as f64 / dir.z,
+                t1: (i + 1) as f64 / dir.z,
+                layer: i,
+            })
+            .collect();
+        let optics = |_: usize, s: &Segment| {
+            let len = s.t1 - s.t0;
+            [
+                (sigma[s.layer] * len, c[s.layer]),
+                (extinct[s.layer] * len, 2.0 * c[s.layer]),
+            ]
+        };
+        let mut density = FlightDensity::default();
+        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(density.totals.iter().all(|t| t.2), "both channels can be drawn from");
+        assert_draws_carry_their_density(&density, &segments, 8);
     }
 
     /// Over 400,000 draws from `density`, 1/pdf summed over the draws in

@@ -102,9 +102,11 @@ pub(super) const PIECE_SEGMENTS: usize = 4;
 
 /// What sun-aware connections along shared paths draw their point from:
 /// the densities of the channels of the least and the largest column
-/// extinction, each with its optics at its centre wavelength whatever a
-/// path drew inside its band (any density will do that the contributions
-/// are divided by; these need no work per path).
+/// extinction, in that order (the second gets the larger share of the
+/// draws, [`MOST_EXTINCT_SHARE`](crate::transport::flight_density::MOST_EXTINCT_SHARE)),
+/// each with its optics at its centre wavelength whatever a path drew
+/// inside its band (any density will do that the contributions are
+/// divided by; these need no work per path).
 #[derive(Debug, Clone)]
 pub(super) struct SunFollow {
     /// Their depths toward the sun, one profile each.

@@ -107,9 +107,10 @@ impl Scene {
 
     /// Next-event estimation along a whole flight (`path.ray` holds its
     /// depths), every channel from one point. The point is drawn from the
-    /// mixture q = (1/K)·Σ_k q_k over the K ≤ 2 followed channels (the
+    /// mixture q = Σ_k s_k·q_k over the K ≤ 2 followed channels (the
     /// least and the most extinct, with their centre wavelengths' optics,
-    /// [`SunFollow`]), each q_k a defensive mixture,
+    /// [`SunFollow`]; shares s = 0.3 and 0.7 for two,
+    /// [`MOST_EXTINCT_SHARE`](crate::transport::flight_density::MOST_EXTINCT_SHARE)), each q_k a defensive mixture,
     /// α·q_sun,k + (1 − α)·q_flight,k with
     /// q_sun,k ∝ c̄·e^(−τ_k)·e^(−τ̃_sun,k) and q_flight,k ∝ c̄·e^(−τ_k),
     /// c̄ the mean σ_s·P11 at the sun's centre, piecewise exponential over
@@ -118,7 +119,7 @@ impl Scene {
     /// single-scattering integral along the flight whatever the hero, since
     /// q > 0 wherever σ_s > 0. Following the least extinct channel bounds
     /// the weight of every channel more extinct than it in every layer by
-    /// K/(1 − α) times their ratio of σ_s (its e^(−τ) and T_sun are the
+    /// 1/(s_0·(1 − α)) times their ratio of σ_s (its e^(−τ) and T_sun are the
     /// smaller); ozone's bands, and a band's own wavelengths, can break that
     /// order in places. The point's density is the same for every channel,
     /// so the path's spectral MIS weight (over the densities of the vertices
