@@ -585,8 +585,7 @@ mod tests {
     /// a piece), a slant flight up toward the sun and one away from it.
     #[test]
     fn drawn_points_carry_the_density_they_were_drawn_from() {
-        let levels: Vec<f64> = (0..=8).map(|i| i as f64).collect();
-        let sigma: Vec<f64> = (0..8).map(|i| 0.4 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+        let (levels, sigma, ray, segments) = eight_layer_flight();
         let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
         for sun_x in [0.6f64, -0.6] {
             let sun = DVec3::new(sun_x, 0.0, (1.0 - sun_x * sun_x).sqrt());
@@ -597,19 +596,6 @@ mod tests {
                 sun,
                 false,
             );
-            let dir = DVec3::new(0.5, 0.0, 0.75f64.sqrt());
-            let ray = Ray {
-                origin: DVec3::ZERO,
-                dir,
-                layer: 0,
-            };
-            let segments: Vec<Segment> = (0..8)
-                .map(|i| Segment {
-                    t0: i as f64 / dir.z,
-                    t1: (i + 1) as f64 / dir.z,
-                    layer: i,
-                })
-                .collect();
             let mut density = FlightDensity::default();
             let optics = |_: usize, s: &Segment| {
                 let mut o = [(0.0, 0.0); MAX_FOLLOWED];
@@ -630,8 +616,7 @@ mod tests {
     /// against its length 1.155).
     #[test]
     fn two_followed_channels_draw_with_their_shares() {
-        let levels: Vec<f64> = (0..=8).map(|i| i as f64).collect();
-        let sigma: Vec<f64> = (0..8).map(|i| 0.4 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+        let (levels, sigma, ray, segments) = eight_layer_flight();
         let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
         let c = [0.1; 8];
         let sun = DVec3::new(-0.6, 0.0, 0.8);
@@ -642,6 +627,25 @@ mod tests {
             sun,
             false,
         );
+        let optics = |_: usize, s: &Segment| {
+            let len = s.t1 - s.t0;
+            [
+                (sigma[s.layer] * len, c[s.layer]),
+                (extinct[s.layer] * len, 2.0 * c[s.layer]),
+            ]
+        };
+        let mut density = FlightDensity::default();
+        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(density.totals.iter().all(|t| t.2), "both channels can be drawn from");
+        assert_draws_carry_their_density(&density, &segments, 8);
+    }
+
+    /// Eight 1 km layers (their levels) whose σ falls by e every 1.2 km,
+    /// and a slant flight up through them from the ground, 30° from the
+    /// vertical, with its segments.
+    fn eight_layer_flight() -> (Vec<f64>, Vec<f64>, Ray, Vec<Segment>) {
+        let levels: Vec<f64> = (0..=8).map(|i| i as f64).collect();
+        let sigma: Vec<f64> = (0..8).map(|i| 0.4 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
         let dir = DVec3::new(0.5, 0.0, 0.75f64.sqrt());
         let ray = Ray {
             origin: DVec3::ZERO,
@@ -655,17 +659,7 @@ mod tests {
                 layer: i,
             })
             .collect();
-        let optics = |_: usize, s: &Segment| {
-            let len = s.t1 - s.t0;
-            [
-                (sigma[s.layer] * len, c[s.layer]),
-                (extinct[s.layer] * len, 2.0 * c[s.layer]),
-            ]
-        };
-        let mut density = FlightDensity::default();
-        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
-        assert!(density.totals.iter().all(|t| t.2), "both channels can be drawn from");
-        assert_draws_carry_their_density(&density, &segments, 8);
+        (levels, sigma, ray, segments)
     }
 
     /// Over 400,000 draws from `density`, 1/pdf summed over the draws in
