@@ -22,7 +22,9 @@ use crate::transport::sun_depth::SunDepth;
 use super::aerosol_phase::AerosolPhases;
 use super::path::{AEROSOL_ANGLES, Path, SunFollow};
 use super::spectra::{Basis, ChannelSpectra};
-use super::sun_lobe::{LocalFrame, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes};
+use super::sun_lobe::{
+    LocalFrame, SUN_LOBE_BINS, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes,
+};
 use super::sun_peak::SunPeak;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::reflects;
@@ -350,12 +352,24 @@ impl Scene {
         let layers = self.track.layers();
         let sun = self.sun.direction;
         let mut path = Path::default();
-        let values = SunLobes::values(layers, |m, mu, phi| {
-            let origin = self.geometry.observer_position(0.5 * (levels[m] + levels[m + 1]));
+        // Row `layers` is the ground's: from the ground itself, up only,
+        // the square root of F times the cosine a Lambertian ground weighs
+        // a direction by (`GROUND_LOBE_SHARE`).
+        let values = SunLobes::values(layers + 1, |m, mu, phi| {
+            let ground = m == layers;
+            if ground && mu <= 0.0 {
+                return 0.0;
+            }
+            let altitude = if ground {
+                levels[0]
+            } else {
+                0.5 * (levels[m] + levels[m + 1])
+            };
+            let origin = self.geometry.observer_position(altitude);
             let ray = Ray {
                 origin,
                 dir: LocalFrame::new(self.geometry.up(origin), sun).direction(mu, phi, 1.0),
-                layer: m,
+                layer: m.min(layers - 1),
             };
             if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
                 return 0.0;
@@ -363,9 +377,14 @@ impl Scene {
             if !self.build_sun_density(follow, &mut path, &ray) {
                 return 0.0;
             }
-            path.density.sunlit_integral()
+            if ground {
+                (path.density.sunlit_integral() * mu).sqrt()
+            } else {
+                path.density.sunlit_integral()
+            }
         });
-        Some(SunLobes::from_values(layers, &values))
+        let (rows, ground) = values.split_at(layers * SUN_LOBE_BINS);
+        Some(SunLobes::from_values(layers, rows, ground))
     }
 
     /// The atmosphere's levels (km).

@@ -17,6 +17,7 @@ use super::direction_guide::DirectionGuide;
 use super::path::{Outcome, Path, WORK, Work};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
+use super::sun_lobe::{GROUND_LOBE_SHARE, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
 impl Scene {
@@ -142,7 +143,7 @@ impl Scene {
                     if !self.ground(path, spectra, x, sampler) {
                         return;
                     }
-                    let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
+                    let dir = self.ground_direction(path, x, sampler);
                     ray = Ray {
                         origin: x,
                         dir,
@@ -266,7 +267,7 @@ impl Scene {
         sampler: &mut Sampler,
     ) {
         if self.ground(path, spectra, x, sampler) {
-            let dir = cosine_hemisphere(self.geometry.up(x), sampler.next2());
+            let dir = self.ground_direction(path, x, sampler);
             self.trace(
                 path,
                 spectra,
@@ -279,6 +280,22 @@ impl Scene {
                 None,
             );
         }
+    }
+
+    /// The direction a path goes on along from a ground vertex at `x`: by
+    /// the cosine, or, where the lobe toward the sunlit air is used, with
+    /// its share from the ground's row of it; every channel's throughput
+    /// is weighed by the cosine's density over the mixture's.
+    fn ground_direction(&self, path: &mut Path, x: DVec3, sampler: &mut Sampler) -> DVec3 {
+        let up = self.geometry.up(x);
+        let Some(lobes) = &self.sun_lobes else {
+            return cosine_hemisphere(up, sampler.next2());
+        };
+        let (dir, weight) = guided_ground_direction(&lobes.ground_at(up, self.sun.direction), up, sampler);
+        for t in path.throughput.iter_mut() {
+            *t = *t * weight;
+        }
+        dir
     }
 
     /// A ground vertex: NEE to the sun for every wavelength, then the
@@ -316,6 +333,23 @@ impl Scene {
     }
 }
 
+/// A direction up from a Lambertian ground whose vertical is `up`, drawn
+/// from `lobe` (its ground row) with share [`GROUND_LOBE_SHARE`] and
+/// otherwise by the cosine, and its weight: the cosine's density, μ/π,
+/// over the mixture's (0 at or below the horizon).
+fn guided_ground_direction(lobe: &SunLobe, up: DVec3, sampler: &mut Sampler) -> (DVec3, f64) {
+    let share = GROUND_LOBE_SHARE;
+    let dir = if sampler.next_f64() < share {
+        lobe.sample(sampler)
+    } else {
+        cosine_hemisphere(up, sampler.next2())
+    };
+    let cosine_4pi = 4.0 * dir.dot(up).max(0.0);
+    let mixture = (1.0 - share) * cosine_4pi + share * lobe.density_4pi(dir);
+    let weight = if mixture > 0.0 { cosine_4pi / mixture } else { 0.0 };
+    (dir, weight)
+}
+
 /// 1/(4π × the density) of the scattering direction whose propagation
 /// direction is `d` and whose channels' matrices are `matrices`: the mean
 /// of the channels' P11 (each channel's phase function picked alike), or
@@ -334,4 +368,56 @@ fn matrices_at(matrices: &mut Vec<PhaseMatrix>, mixtures: &[PhaseMixture], table
     let at = tables.locate(cos);
     matrices.clear();
     matrices.extend(mixtures.iter().map(|m| m.matrix(&at)));
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use glam::DVec3;
+
+    use super::super::sun_lobe::SunLobes;
+    use super::*;
+
+    #[test]
+    fn guided_ground_directions_weigh_out_to_the_cosine() {
+        // A ground row peaked near the horizon toward the sun. 400,000
+        // guided draws, their weights summed per cell of cos(zenith) ×
+        // azimuth, estimate each cell's share of the Lambertian ground's
+        // cosine measure, ∫ μ/π dω, within 4.5 standard errors of the
+        // cell's mean weight; no draw goes below the horizon.
+        let lobes = SunLobes::new(1, |_, mu, phi| {
+            (1.0 + 30.0 * (-10.0 * mu.abs()).exp()) * (1.0 + 10.0 * (-2.0 * phi).exp())
+        });
+        let up = DVec3::new(0.1, 0.2, 1.0).normalize();
+        let sun = DVec3::new(0.8, -0.3, -0.07).normalize();
+        let lobe = lobes.ground_at(up, sun);
+        let east = up.any_orthonormal_vector();
+        let north = up.cross(east);
+        let (nm, np) = (8usize, 12usize);
+        let n = 400_000;
+        let (mut sum, mut sum2) = (vec![0.0; nm * np], vec![0.0; nm * np]);
+        let mut s = Sampler::new(&[47]);
+        for _ in 0..n {
+            let (d, w) = guided_ground_direction(&lobe, up, &mut s);
+            let mu = d.dot(up);
+            assert!(mu > 0.0 && w.is_finite(), "draw {d} with weight {w}");
+            let phi = d.dot(north).atan2(d.dot(east));
+            let i = ((mu * nm as f64) as usize).min(nm - 1);
+            let j = (((phi + PI) / (2.0 * PI) * np as f64) as usize).min(np - 1);
+            sum[i * np + j] += w;
+            sum2[i * np + j] += w * w;
+        }
+        for c in 0..nm * np {
+            let (i, j) = (c / np, c % np);
+            let (mu0, mu1) = (i as f64 / nm as f64, (i + 1) as f64 / nm as f64);
+            let want = 0.5 * (mu1 * mu1 - mu0 * mu0) * (2.0 * PI / np as f64) / PI;
+            let mean = sum[c] / n as f64;
+            let se = ((sum2[c] / n as f64 - mean * mean) / n as f64).sqrt();
+            assert!(
+                (mean - want).abs() < 4.5 * se,
+                "cell {i}, {j}: {mean:.6} ± {se:.6} against {want:.6}"
+            );
+        }
+    }
 }
