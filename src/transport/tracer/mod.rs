@@ -47,7 +47,9 @@
 //! from a lobe tabulated per layer toward the sunlit air instead
 //! (`sun_lobe`), and with the sun 10° to 25° up 1 in 10 from a lobe about
 //! the sun (`sun_peak`); the weight's denominator is then the mixture of
-//! both densities (`direction_guide`).
+//! both densities (`direction_guide`). Where the lobe toward the sunlit
+//! air is used, 3 in 10 directions up from a reflecting ground come from
+//! its ground row instead of the cosine, weighed the same way.
 //!
 //! **Sun connections** (next-event estimation) at every scattering and
 //! ground vertex, or along the whole flight instead: K stratified points
