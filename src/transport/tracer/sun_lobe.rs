@@ -125,7 +125,7 @@ pub const GROUND_LOBE_SHARE: f64 = 0.3;
 const D_MU: f64 = 2.0 / SUN_LOBE_MU_BINS as f64;
 const D_PHI: f64 = PI / SUN_LOBE_PHI_BINS as f64;
 
-/// The lobe's table: its rows, one per tracked layer.
+/// The lobe's table: its rows, one per tracked layer, and the ground's.
 #[derive(Debug, Clone)]
 pub(super) struct SunLobes {
     /// Per layer, the cumulative shares of its bins (`BINS + 1` values
