@@ -1,0 +1,596 @@
+//! A measurement, not a feature: does a bidirectional estimator carry
+//! twilight light more cheaply than the tracer's sun-aware connections?
+//! (README, "Measured on 2026-11-28 and not kept", item 13.)
+//!
+//! For one wavelength, scalar (I only), a point sun, a black ground and
+//! the layered medium of a directions job's first task (spherical
+//! geometry, `aerosol_phase = "hg"`), it estimates the radiance at the
+//! observer along given directions with bidirectional path tracing:
+//! - a sensor subpath from the eye along the direction (free flights,
+//!   phase-sampled directions), connected to the sun at every collision;
+//! - `--lights` light subpaths per sample, each entering the atmosphere
+//!   along the sun's beam through a disc across it (centred on the
+//!   observer's line, half the draws within `--disc` A km of it, half
+//!   within B km), then free flights and phase-sampled directions;
+//! - every sensor vertex connected to every light vertex (`point`),
+//!   and/or every sensor flight to every light vertex at a point drawn
+//!   along the flight by equiangular sampling toward it (`equiangular`);
+//! - the balance heuristic over every way the path could have been made
+//!   (each split between the two subpaths with at least one sensor
+//!   vertex, and both ways of drawing the last sensor vertex), so the
+//!   estimate is unbiased whatever the subpaths' densities.
+//!
+//! It prints per direction the mean, its standard error, a path's variance
+//! of I over I², the time per sample and each part's share and variance:
+//! compare with `atmosim render` of the same job (its `radiance.csv`:
+//! `I_se` over I, squared, times `samples`).
+//!
+//! ```text
+//! cargo run --release --example bidirectional_probe -- \
+//!     examples/twilight_bidirectional.toml --paths 1000000 --seed 21 0:0 60:180 85:0
+//! ```
+
+use std::f64::consts::PI;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use atmosim::geometry::basis::orthonormal_basis;
+use atmosim::geometry::ray::{Ray, WalkEnd, layer_at, walk};
+use atmosim::geometry::shell::Geometry;
+use atmosim::job::Job;
+use atmosim::job::options::MediumModel;
+use atmosim::polarization::phase::PhaseFunction;
+use atmosim::sampling::sampler::Sampler;
+use atmosim::transport::free_flight::{FlightEnd, sample_t_maj};
+use atmosim::transport::medium::Medium;
+use atmosim::transport::optical_depth::{optical_depth, optical_depth_to};
+use clap::Parser;
+use glam::DVec3;
+
+/// The most vertices of either subpath (a bound far above what a path
+/// reaches in the atmosphere; a longer one would be left out).
+const MAX_VERTICES: usize = 200;
+
+#[derive(Parser)]
+#[command(about = "Bidirectional twilight probe (a measurement; README, item 13 of 2026-11-28)")]
+struct Args {
+    /// A directions job (spherical, one wavelength; its first task).
+    job: PathBuf,
+    /// Directions as view_zenith_deg:azimuth_deg (azimuth from the sun's).
+    #[arg(required = true)]
+    directions: Vec<String>,
+    /// Samples per direction.
+    #[arg(long, default_value_t = 200_000)]
+    paths: u64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Light subpaths per sample (0: the sensor subpath and its sun
+    /// connections alone).
+    #[arg(long, default_value_t = 1)]
+    lights: u32,
+    /// The two disc radii (km) the light subpaths enter through.
+    #[arg(long, value_delimiter = ',', default_values_t = [300.0, 1500.0])]
+    disc: Vec<f64>,
+    /// Connections: "point", "equiangular" or "both".
+    #[arg(long, default_value = "both")]
+    connections: String,
+}
+
+/// A vertex: its position and its layer's optics.
+#[derive(Clone, Copy)]
+struct Vertex {
+    x: DVec3,
+    sigma_t: f64,
+    sigma_s: f64,
+    rayleigh: f64,
+    aerosol: f64,
+    depolarization: f64,
+    g: f64,
+}
+
+/// One flight of the sensor subpath: origin, direction and the distance
+/// to where it leaves the atmosphere or meets the ground.
+struct Flight {
+    origin: DVec3,
+    dir: DVec3,
+    exit: f64,
+}
+
+/// A whole path, eye side first.
+#[derive(Default)]
+struct FullPath {
+    v: Vec<Vertex>,
+    /// `t[i]`: transmittance between `v[i]` and `v[i + 1]`.
+    t: Vec<f64>,
+    /// Transmittance from the eye to `v[0]`.
+    t_eye: f64,
+    /// `exit[i]`: the exit distance of the ray from `v[i − 1]` (the eye
+    /// for `i = 0`) through `v[i]`.
+    exit: Vec<f64>,
+}
+
+/// How often each way of making a path is drawn per sample.
+struct Counts {
+    point: f64,
+    equiangular: f64,
+}
+
+struct World {
+    medium: Medium,
+    geometry: Geometry,
+    radius: f64,
+    top_radius: f64,
+    sun: DVec3,
+    eye: DVec3,
+    disc: [f64; 2],
+}
+
+impl World {
+    fn vertex(&self, x: DVec3, layer: usize) -> Vertex {
+        let o = self.medium.at(layer, self.geometry.altitude(x));
+        Vertex {
+            x,
+            sigma_t: o.sigma_t,
+            sigma_s: o.sigma_s(),
+            rayleigh: o.sigma_rayleigh,
+            aerosol: o.sigma_aerosol_sca,
+            depolarization: o.rayleigh_depolarization,
+            g: o.aerosol_g,
+        }
+    }
+
+    /// The phase function over 4π at `v`: also the density per steradian
+    /// of a direction drawn there.
+    fn phase(&self, v: &Vertex, cos: f64) -> f64 {
+        let r = PhaseFunction::Rayleigh {
+            depolarization: v.depolarization,
+        }
+        .p11(cos);
+        let a = if v.aerosol > 0.0 {
+            PhaseFunction::HenyeyGreenstein { g: v.g }.p11(cos)
+        } else {
+            0.0
+        };
+        (v.rayleigh * r + v.aerosol * a) / (v.sigma_s * 4.0 * PI)
+    }
+
+    fn sample_direction(&self, v: &Vertex, k_in: DVec3, sampler: &mut Sampler) -> DVec3 {
+        let u = sampler.next2();
+        let phase = if sampler.next_f64() * v.sigma_s < v.rayleigh {
+            PhaseFunction::Rayleigh {
+                depolarization: v.depolarization,
+            }
+        } else {
+            PhaseFunction::HenyeyGreenstein { g: v.g }
+        };
+        phase.sample_direction(k_in, u).0
+    }
+
+    fn ray(&self, origin: DVec3, dir: DVec3) -> Option<Ray> {
+        let levels = self.medium.levels_km();
+        let z = self.geometry.altitude(origin).max(levels[0]);
+        let layer = layer_at(levels, z, self.geometry.up(origin).dot(dir))?;
+        Some(Ray { origin, dir, layer })
+    }
+
+    /// A free flight: the collision and the transmittance to it.
+    fn flight(&self, origin: DVec3, dir: DVec3, sampler: &mut Sampler) -> Option<(Vertex, f64)> {
+        let ray = self.ray(origin, dir)?;
+        let levels = self.medium.levels_km();
+        let end = sample_t_maj(
+            |l| self.medium.sigma_maj(l),
+            &self.geometry,
+            levels,
+            &ray,
+            sampler,
+            |_, _| false,
+        );
+        let FlightEnd::Collided(c) = end else { return None };
+        let tau = optical_depth_to(&self.medium, &self.geometry, &ray, c.t);
+        Some((self.vertex(origin + c.t * dir, c.layer), (-tau).exp()))
+    }
+
+    fn exit(&self, origin: DVec3, dir: DVec3) -> f64 {
+        let Some(ray) = self.ray(origin, dir) else { return 0.0 };
+        match walk(&self.geometry, self.medium.levels_km(), &ray, |_| {
+            ControlFlow::Continue(())
+        }) {
+            WalkEnd::Ground { t } | WalkEnd::Top { t } => t,
+            WalkEnd::Endless | WalkEnd::Stopped => f64::INFINITY,
+        }
+    }
+
+    /// Transmittance between two points (0 where the planet is between).
+    fn transmittance(&self, a: DVec3, b: DVec3) -> f64 {
+        let d = b - a;
+        let len = d.length();
+        let dir = d / len;
+        let closest = (-a.dot(dir)).clamp(0.0, len);
+        if (a + closest * dir).length() < self.radius * (1.0 - 1e-12) {
+            return 0.0;
+        }
+        let Some(ray) = self.ray(a, dir) else { return 0.0 };
+        (-optical_depth_to(&self.medium, &self.geometry, &ray, len)).exp()
+    }
+
+    /// Transmittance toward the sun (0 where the planet hides it).
+    fn sun_transmittance(&self, x: DVec3) -> f64 {
+        let Some(ray) = self.ray(x, self.sun) else { return 0.0 };
+        match optical_depth(&self.medium, &self.geometry, &ray) {
+            (_, WalkEnd::Ground { .. }) => 0.0,
+            (tau, _) => (-tau).exp(),
+        }
+    }
+
+    /// The density (per km² across the beam) of the disc point whose
+    /// line along the beam passes through `x`.
+    fn disc_density(&self, x: DVec3) -> f64 {
+        let d = x - self.eye;
+        let r = (d - d.dot(self.sun) * self.sun).length();
+        self.disc.iter().filter(|&&a| r < a).map(|&a| 0.5 / (PI * a * a)).sum()
+    }
+
+    /// A light subpath's first vertex and the sun's transmittance to it.
+    fn light_start(&self, sampler: &mut Sampler) -> Option<(Vertex, f64)> {
+        let [u0, u1] = sampler.next2();
+        let radius = if sampler.next_f64() < 0.5 {
+            self.disc[0]
+        } else {
+            self.disc[1]
+        };
+        let (r, phi) = (radius * u0.sqrt(), 2.0 * PI * u1);
+        let (b1, b2) = orthonormal_basis(self.sun);
+        let c = self.eye + r * (phi.cos() * b1 + phi.sin() * b2);
+        let cs = c.dot(self.sun);
+        let disc = cs * cs - (c.length_squared() - self.top_radius * self.top_radius);
+        if disc <= 0.0 {
+            return None;
+        }
+        let entry = c + (disc.sqrt() - cs - 1e-7) * self.sun;
+        let (v, t) = self.flight(entry, -self.sun, sampler)?;
+        Some((v, t))
+    }
+
+    /// f over the sum of count × density of every way of making `p` with
+    /// its first `k` vertices from the sensor side (`sun_tr`: the sun's
+    /// transmittance to its last vertex).
+    fn contribution(&self, p: &FullPath, k: usize, sun_tr: f64, counts: &Counts, phase: &mut Vec<f64>) -> f64 {
+        let n = p.v.len();
+        phase.clear();
+        for i in 0..n {
+            let prev = if i == 0 { self.eye } else { p.v[i - 1].x };
+            let out = (prev - p.v[i].x).normalize();
+            let inc = if i + 1 == n {
+                -self.sun
+            } else {
+                (p.v[i].x - p.v[i + 1].x).normalize()
+            };
+            phase.push(self.phase(&p.v[i], inc.dot(out)));
+        }
+        let g = |i: usize| p.t[i] / (p.v[i + 1].x - p.v[i].x).length_squared();
+        let disc = self.disc_density(p.v[n - 1].x);
+        // f over the density of drawing the path split at k with x_k at a
+        // collision: the albedos, the phase at the ends of the connection
+        // and the connection itself.
+        let mut weight: f64 = p.v.iter().map(|v| v.sigma_s / v.sigma_t).product();
+        weight *= phase[k - 1];
+        if k < n {
+            weight *= g(k - 1) * phase[k] / disc;
+        } else {
+            weight *= sun_tr;
+        }
+        if weight == 0.0 || !weight.is_finite() {
+            return 0.0;
+        }
+        // The density of the split at m + 1 over that at m (1-based).
+        let ratio = |m: usize| {
+            if m + 1 < n {
+                phase[m - 1] * g(m - 1) / (phase[m + 1] * g(m))
+            } else {
+                phase[m - 1] * g(m - 1) / (sun_tr * disc)
+            }
+        };
+        // x_m drawn by equiangular sampling over drawn at a collision.
+        let equiangular = |m: usize| {
+            let o = if m == 1 { self.eye } else { p.v[m - 2].x };
+            let d = p.v[m - 1].x - o;
+            let t = d.length();
+            let q = equiangular_density(o, d / t, p.exit[m - 1], p.v[m].x, t);
+            let tm = if m == 1 { p.t_eye } else { p.t[m - 2] };
+            q / (p.v[m - 1].sigma_t * tm)
+        };
+        let count = |m: usize| {
+            if m == n {
+                1.0
+            } else if counts.equiangular > 0.0 {
+                counts.point + counts.equiangular * equiangular(m)
+            } else {
+                counts.point
+            }
+        };
+        let mut sum = count(k);
+        let mut r = 1.0;
+        for m in k..n {
+            r *= ratio(m);
+            sum += count(m + 1) * r;
+        }
+        let mut r = 1.0;
+        for m in (1..k).rev() {
+            r /= ratio(m);
+            sum += count(m) * r;
+        }
+        weight / sum
+    }
+}
+
+/// The equiangular density (per km) at distance `t` along the ray
+/// (`o`, `u`) over [0, `t_max`] toward `c`.
+fn equiangular_density(o: DVec3, u: DVec3, t_max: f64, c: DVec3, t: f64) -> f64 {
+    let (delta, h, a, b) = equiangular_frame(o, u, t_max, c);
+    h / ((b - a) * (h * h + (t - delta) * (t - delta)))
+}
+
+fn equiangular_frame(o: DVec3, u: DVec3, t_max: f64, c: DVec3) -> (f64, f64, f64, f64) {
+    let delta = (c - o).dot(u);
+    let h = (c - o - delta * u).length().max(1e-9);
+    (delta, h, (-delta / h).atan(), ((t_max - delta) / h).atan())
+}
+
+fn equiangular_sample(o: DVec3, u: DVec3, t_max: f64, c: DVec3, xi: f64) -> f64 {
+    let (delta, h, a, b) = equiangular_frame(o, u, t_max, c);
+    (delta + h * (a + xi * (b - a)).tan()).clamp(0.0, t_max)
+}
+
+/// Running sums of a value and its square.
+#[derive(Default, Clone, Copy)]
+struct Moments {
+    sum: f64,
+    sum2: f64,
+}
+
+impl Moments {
+    fn add(&mut self, x: f64) {
+        self.sum += x;
+        self.sum2 += x * x;
+    }
+    fn variance(&self, n: f64) -> f64 {
+        (self.sum2 / n - (self.sum / n).powi(2)) * n / (n - 1.0)
+    }
+}
+
+fn parse_direction(text: &str) -> Result<DVec3> {
+    let (z, a) = text
+        .split_once(':')
+        .with_context(|| format!("direction {text:?}: expected view_zenith_deg:azimuth_deg"))?;
+    let z: f64 = z.parse().with_context(|| format!("direction {text:?}: view zenith"))?;
+    let a: f64 = a.parse().with_context(|| format!("direction {text:?}: azimuth"))?;
+    let (z, a) = (z.to_radians(), a.to_radians());
+    Ok(DVec3::new(z.sin() * a.cos(), z.sin() * a.sin(), z.cos()))
+}
+
+fn main() {
+    if let Err(e) = run(Args::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(2);
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    let (point, equiangular) = match args.connections.as_str() {
+        "point" => (true, false),
+        "equiangular" => (false, true),
+        "both" => (true, true),
+        other => bail!("--connections {other:?}: expected point, equiangular or both"),
+    };
+    if args.disc.len() != 2 || args.disc.iter().any(|&r| r <= 0.0 || !r.is_finite()) {
+        bail!("--disc: expected two radii in km above 0, e.g. 300,1500");
+    }
+    if args.paths < 2 {
+        bail!("--paths: at least 2");
+    }
+    let lights = args.lights as f64;
+    let counts = Counts {
+        point: if point { lights } else { 0.0 },
+        equiangular: if equiangular { lights } else { 0.0 },
+    };
+    let job = Job::from_file(&args.job)?;
+    let Geometry::Spherical { radius_km } = job.geometry() else {
+        bail!("{}: the probe is for spherical geometry", args.job.display());
+    };
+    let task = &job.tasks[0];
+    let medium = Medium::new(&task.atmosphere, 0, MediumModel::Layered, 1.0);
+    let top = medium.levels_km()[medium.levels_km().len() - 1];
+    let world = World {
+        medium,
+        geometry: job.geometry(),
+        radius: radius_km,
+        top_radius: radius_km + top,
+        sun: task.sun.direction,
+        eye: job.geometry().observer_position(task.observer_altitude_km),
+        disc: [args.disc[0], args.disc[1]],
+    };
+    println!(
+        "{} ({}), {} paths per direction, seed {}, {} light subpaths per sample through discs of {} and {} km, connections {}",
+        args.job.display(),
+        task.name,
+        args.paths,
+        args.seed,
+        args.lights,
+        args.disc[0],
+        args.disc[1],
+        args.connections,
+    );
+    for (index, text) in args.directions.iter().enumerate() {
+        let dir = parse_direction(text)?;
+        let mut sensor: Vec<(Vertex, f64)> = Vec::new();
+        let mut flights: Vec<Flight> = Vec::new();
+        let mut light: Vec<(Vertex, f64)> = Vec::new();
+        let mut back_exit: Vec<f64> = Vec::new();
+        let mut path = FullPath::default();
+        let mut phase = Vec::new();
+        let (mut total, mut sun, mut points, mut along) = (
+            Moments::default(),
+            Moments::default(),
+            Moments::default(),
+            Moments::default(),
+        );
+        let start = Instant::now();
+        for sample in 0..args.paths {
+            let mut sampler = Sampler::new(&[args.seed, index as u64, sample]);
+            sensor.clear();
+            flights.clear();
+            let (mut x, mut d) = (world.eye, dir);
+            while sensor.len() < MAX_VERTICES && world.ray(x, d).is_some() {
+                let exit = if equiangular { world.exit(x, d) } else { 0.0 };
+                flights.push(Flight {
+                    origin: x,
+                    dir: d,
+                    exit,
+                });
+                let Some((v, t)) = world.flight(x, d, &mut sampler) else {
+                    break;
+                };
+                sensor.push((v, t));
+                d = world.sample_direction(&v, d, &mut sampler);
+                x = v.x;
+            }
+            // The first k sensor vertices of the path, with their flights.
+            let sensor_part = |path: &mut FullPath, k: usize| {
+                path.v.clear();
+                path.t.clear();
+                path.exit.clear();
+                path.t_eye = sensor.first().map_or(0.0, |s| s.1);
+                for i in 0..k {
+                    path.v.push(sensor[i].0);
+                    path.exit.push(flights[i].exit);
+                    if i + 1 < k {
+                        path.t.push(sensor[i + 1].1);
+                    }
+                }
+            };
+            let (mut s, mut pc, mut ec) = (0.0, 0.0, 0.0);
+            for k in 1..=sensor.len() {
+                let tr = world.sun_transmittance(sensor[k - 1].0.x);
+                if tr > 0.0 {
+                    sensor_part(&mut path, k);
+                    s += world.contribution(&path, k, tr, &counts, &mut phase);
+                }
+            }
+            for _ in 0..args.lights {
+                light.clear();
+                back_exit.clear();
+                if let Some((mut v, t)) = world.light_start(&mut sampler) {
+                    light.push((v, t));
+                    let mut d = -world.sun;
+                    while light.len() < MAX_VERTICES {
+                        d = world.sample_direction(&v, d, &mut sampler);
+                        let Some((next, t)) = world.flight(v.x, d, &mut sampler) else {
+                            break;
+                        };
+                        if equiangular {
+                            back_exit.push(world.exit(next.x, (v.x - next.x).normalize()));
+                        }
+                        light.push((next, t));
+                        v = next;
+                    }
+                }
+                // The light part of a path ending (sun side) in y_j .. y_1.
+                let light_part = |path: &mut FullPath, j: usize| {
+                    for i in (0..j).rev() {
+                        path.v.push(light[i].0);
+                        if i > 0 {
+                            path.t.push(light[i].1);
+                        }
+                    }
+                    if equiangular {
+                        path.exit.extend((1..j).rev().map(|a| back_exit[a - 1]));
+                    }
+                };
+                let sun_tr = light.first().map_or(0.0, |l| l.1);
+                // Joins the path's sensor part, ending at `from` (its k-th
+                // vertex), to light vertex j over a transmittance `tc`.
+                let mut connect = |path: &mut FullPath, k: usize, from: DVec3, j: usize, tc: f64| {
+                    path.t.push(tc);
+                    if equiangular {
+                        let yj = light[j - 1].0.x;
+                        path.exit.push(if j >= 2 {
+                            world.exit(from, (yj - from).normalize())
+                        } else {
+                            0.0
+                        });
+                    }
+                    light_part(path, j);
+                    world.contribution(path, k, sun_tr, &counts, &mut phase)
+                };
+                if point {
+                    for k in 1..=sensor.len() {
+                        let xk = sensor[k - 1].0.x;
+                        for j in 1..=light.len() {
+                            let yj = light[j - 1].0.x;
+                            let tc = world.transmittance(xk, yj);
+                            if tc == 0.0 {
+                                continue;
+                            }
+                            sensor_part(&mut path, k);
+                            pc += connect(&mut path, k, xk, j, tc);
+                        }
+                    }
+                }
+                if equiangular {
+                    for (k, f) in flights.iter().enumerate().map(|(i, f)| (i + 1, f)) {
+                        if f.exit <= 0.0 {
+                            continue;
+                        }
+                        for j in 1..=light.len() {
+                            let yj = light[j - 1].0.x;
+                            let t = equiangular_sample(f.origin, f.dir, f.exit, yj, sampler.next_f64());
+                            let z = f.origin + t * f.dir;
+                            let levels = world.medium.levels_km();
+                            let Some(layer) = layer_at(levels, world.geometry.altitude(z).max(levels[0]), 0.0) else {
+                                continue;
+                            };
+                            let vz = world.vertex(z, layer);
+                            let (t_in, tc) = (world.transmittance(f.origin, z), world.transmittance(z, yj));
+                            if tc == 0.0 || t_in == 0.0 || vz.sigma_s == 0.0 {
+                                continue;
+                            }
+                            sensor_part(&mut path, k - 1);
+                            if k == 1 {
+                                path.t_eye = t_in;
+                            } else {
+                                path.t.push(t_in);
+                            }
+                            path.v.push(vz);
+                            path.exit.push(f.exit);
+                            ec += connect(&mut path, k, z, j, tc);
+                        }
+                    }
+                }
+            }
+            total.add(s + pc + ec);
+            sun.add(s);
+            points.add(pc);
+            along.add(ec);
+        }
+        let seconds = start.elapsed().as_secs_f64();
+        let n = args.paths as f64;
+        let mean = total.sum / n;
+        let var = total.variance(n);
+        let part = |m: &Moments| (m.sum / total.sum, m.variance(n) / (mean * mean));
+        let (ss, sv) = part(&sun);
+        let (ps, pv) = part(&points);
+        let (es, ev) = part(&along);
+        println!(
+            "{text}: I {mean:.5e} se {:.3e} (relative {:.4}); a path's variance of I over I^2 {:.2}; {:.2} us a path; \
+             share and variance over I^2: sun from sensor vertices {ss:.3} {sv:.2}, point connections {ps:.3} {pv:.2}, \
+             equiangular connections {es:.3} {ev:.2}",
+            (var / n).sqrt(),
+            (var / n).sqrt() / mean,
+            var / (mean * mean),
+            seconds / n * 1e6,
+        );
+    }
+    Ok(())
+}
