@@ -7,7 +7,11 @@
 //! geometry, `aerosol_phase = "hg"`), it estimates the radiance at the
 //! observer along given directions with bidirectional path tracing:
 //! - a sensor subpath from the eye along the direction (free flights,
-//!   phase-sampled directions), connected to the sun at every collision;
+//!   phase-sampled directions), connected to the sun at every collision,
+//!   or with `--sun along` from one point drawn along every flight, as
+//!   the tracer's sun-aware connections are (here from a cruder density);
+//!   with `--forced`, its flights collide before they leave, with Russian
+//!   roulette, as the tracer's do;
 //! - `--lights` light subpaths per sample, each entering the atmosphere
 //!   along the sun's beam through a disc across it (centred on the
 //!   observer's line, half the draws within `--disc` A km of it, half
@@ -17,8 +21,12 @@
 //!   along the flight by equiangular sampling toward it (`equiangular`);
 //! - the balance heuristic over every way the path could have been made
 //!   (each split between the two subpaths with at least one sensor
-//!   vertex, and both ways of drawing the last sensor vertex), so the
+//!   vertex, and each way of drawing the last sensor vertex), so the
 //!   estimate is unbiased whatever the subpaths' densities.
+//!
+//! Without a lobe toward the sunlit air, the tracer's density pieces or
+//! Mie phase functions, its sensor side is noisier than the tracer's; what
+//! it measures is what light subpaths add to it.
 //!
 //! It prints per direction the mean, its standard error, a path's variance
 //! of I over I², the time per sample and each part's share and variance:
@@ -43,7 +51,7 @@ use atmosim::job::Job;
 use atmosim::job::options::MediumModel;
 use atmosim::polarization::phase::PhaseFunction;
 use atmosim::sampling::sampler::Sampler;
-use atmosim::transport::free_flight::{FlightEnd, sample_t_maj};
+use atmosim::transport::free_flight::{FlightEnd, forced_distance, locate_with, sample_t_maj};
 use atmosim::transport::medium::Medium;
 use atmosim::transport::optical_depth::{optical_depth, optical_depth_to};
 use clap::Parser;
@@ -76,6 +84,83 @@ struct Args {
     /// Connections: "point", "equiangular" or "both".
     #[arg(long, default_value = "both")]
     connections: String,
+    /// How sensor subpaths reach the sun: "collision" (a shadow ray from
+    /// every collision) or "along" (from one point drawn along every
+    /// flight, as the tracer's sun-aware connections; here from a
+    /// piecewise-constant density over pieces of at most 2 km, mixed 0.8 :
+    /// 0.2 with the flight's own).
+    #[arg(long, default_value = "collision")]
+    sun: String,
+    /// Sensor subpaths collide before they leave (each flight's weight
+    /// times its chance of a collision), with Russian roulette below a
+    /// throughput of 0.03, as the tracer's do; the densities in the
+    /// weights stay those of free flights (any weights that sum to 1 over
+    /// the ways of making a path keep the estimate unbiased).
+    #[arg(long)]
+    forced: bool,
+}
+
+/// A density along a ray for the point a sun connection is made from:
+/// share [`SUN_SHARE`] piecewise constant in proportion to the sunlit
+/// single scattering at each piece's middle, the rest the flight's own
+/// (σ_t·e^(−τ), truncated at the exit).
+struct SunDensity {
+    /// Per piece: start, end, σ_t, optical depth at its start, value per km.
+    pieces: Vec<(f64, f64, f64, f64, f64)>,
+    /// Σ value × length.
+    total: f64,
+    /// Optical depth to the exit.
+    tau_exit: f64,
+}
+
+const SUN_SHARE: f64 = 0.8;
+const SUN_PIECE_KM: f64 = 2.0;
+
+impl SunDensity {
+    fn piece_at(&self, t: f64) -> usize {
+        self.pieces.partition_point(|p| p.1 < t).min(self.pieces.len() - 1)
+    }
+    fn tau_at(&self, t: f64) -> f64 {
+        let p = self.pieces[self.piece_at(t)];
+        p.3 + p.2 * (t - p.0)
+    }
+    fn share(&self) -> f64 {
+        if self.total > 0.0 { SUN_SHARE } else { 0.0 }
+    }
+    fn pdf(&self, t: f64) -> f64 {
+        let p = self.pieces[self.piece_at(t)];
+        let flight = p.2 * (-(p.3 + p.2 * (t - p.0))).exp() / (1.0 - (-self.tau_exit).exp());
+        let sun = if self.total > 0.0 { p.4 / self.total } else { 0.0 };
+        self.share() * sun + (1.0 - self.share()) * flight
+    }
+    fn sample(&self, sampler: &mut Sampler) -> f64 {
+        let [u0, u1] = sampler.next2();
+        if sampler.next_f64() < self.share() {
+            let target = u0 * self.total;
+            let mut acc = 0.0;
+            for p in &self.pieces {
+                let w = p.4 * (p.1 - p.0);
+                if acc + w >= target && w > 0.0 {
+                    return p.0 + u1 * (p.1 - p.0);
+                }
+                acc += w;
+            }
+            let p = self.pieces[self.pieces.len() - 1];
+            p.0 + u1 * (p.1 - p.0)
+        } else {
+            let tau = -(1.0 - u0 * (1.0 - (-self.tau_exit).exp())).ln();
+            let i = self
+                .pieces
+                .partition_point(|p| p.3 + p.2 * (p.1 - p.0) < tau)
+                .min(self.pieces.len() - 1);
+            let p = self.pieces[i];
+            if p.2 > 0.0 {
+                (p.0 + (tau - p.3) / p.2).clamp(p.0, p.1)
+            } else {
+                p.0
+            }
+        }
+    }
 }
 
 /// A vertex: its position and its layer's optics.
@@ -96,6 +181,8 @@ struct Flight {
     origin: DVec3,
     dir: DVec3,
     exit: f64,
+    /// The factor of forced collisions and roulette on the path before it.
+    factor: f64,
 }
 
 /// A whole path, eye side first.
@@ -139,6 +226,13 @@ impl World {
             depolarization: o.rayleigh_depolarization,
             g: o.aerosol_g,
         }
+    }
+
+    /// The vertex at `x`, if inside the atmosphere.
+    fn vertex_at(&self, x: DVec3) -> Option<Vertex> {
+        let levels = self.medium.levels_km();
+        let layer = layer_at(levels, self.geometry.altitude(x).max(levels[0]), 0.0)?;
+        Some(self.vertex(x, layer))
     }
 
     /// The phase function over 4π at `v`: also the density per steradian
@@ -192,6 +286,23 @@ impl World {
         Some((self.vertex(origin + c.t * dir, c.layer), (-tau).exp()))
     }
 
+    /// A forced free flight: a collision before the ray leaves, drawn in
+    /// proportion to σ_t·e^(−τ) over the ray, its transmittance, and the
+    /// chance of a collision at all (the flight's weight).
+    fn forced_flight(&self, origin: DVec3, dir: DVec3, sampler: &mut Sampler) -> Option<(Vertex, f64, f64)> {
+        let ray = self.ray(origin, dir)?;
+        let levels = self.medium.levels_km();
+        let (tau_exit, _) = optical_depth(&self.medium, &self.geometry, &ray);
+        let chance = -(-tau_exit).exp_m1();
+        if chance <= 0.0 {
+            return None;
+        }
+        let tau = forced_distance(sampler.next_f64(), chance);
+        let sigma: Vec<f64> = (0..levels.len() - 1).map(|l| self.medium.layer_sigma_t(l)).collect();
+        let c = locate_with(&sigma, &self.geometry, levels, &ray, tau);
+        Some((self.vertex(origin + c.t * dir, c.layer), (-tau).exp(), chance))
+    }
+
     fn exit(&self, origin: DVec3, dir: DVec3) -> f64 {
         let Some(ray) = self.ray(origin, dir) else { return 0.0 };
         match walk(&self.geometry, self.medium.levels_km(), &ray, |_| {
@@ -222,6 +333,42 @@ impl World {
             (_, WalkEnd::Ground { .. }) => 0.0,
             (tau, _) => (-tau).exp(),
         }
+    }
+
+    /// The sun-connection density along the ray from `origin` along `dir`.
+    fn sun_density(&self, origin: DVec3, dir: DVec3) -> Option<SunDensity> {
+        let ray = self.ray(origin, dir)?;
+        let cos = self.sun.dot(dir);
+        let mut d = SunDensity {
+            pieces: Vec::new(),
+            total: 0.0,
+            tau_exit: 0.0,
+        };
+        let mut tau = 0.0;
+        walk(&self.geometry, self.medium.levels_km(), &ray, |seg| {
+            if !seg.t1.is_finite() {
+                return ControlFlow::Break(());
+            }
+            let sigma = self.medium.layer_sigma_t(seg.layer);
+            let n = ((seg.t1 - seg.t0) / SUN_PIECE_KM).ceil().max(1.0) as usize;
+            let len = (seg.t1 - seg.t0) / n as f64;
+            for i in 0..n {
+                let t0 = seg.t0 + i as f64 * len;
+                let mid = origin + (t0 + 0.5 * len) * dir;
+                let v = self.vertex(mid, seg.layer);
+                let value = if v.sigma_s > 0.0 {
+                    v.sigma_s * self.phase(&v, cos) * (-(tau + 0.5 * sigma * len)).exp() * self.sun_transmittance(mid)
+                } else {
+                    0.0
+                };
+                d.pieces.push((t0, t0 + len, sigma, tau, value));
+                d.total += value * len;
+                tau += sigma * len;
+            }
+            ControlFlow::Continue(())
+        });
+        d.tau_exit = tau;
+        (!d.pieces.is_empty() && tau > 0.0).then_some(d)
     }
 
     /// The density (per km² across the beam) of the disc point whose
@@ -256,7 +403,15 @@ impl World {
     /// f over the sum of count × density of every way of making `p` with
     /// its first `k` vertices from the sensor side (`sun_tr`: the sun's
     /// transmittance to its last vertex).
-    fn contribution(&self, p: &FullPath, k: usize, sun_tr: f64, counts: &Counts, phase: &mut Vec<f64>) -> f64 {
+    fn contribution(
+        &self,
+        p: &FullPath,
+        k: usize,
+        sun_tr: f64,
+        counts: &Counts,
+        phase: &mut Vec<f64>,
+        last: f64,
+    ) -> f64 {
         let n = p.v.len();
         phase.clear();
         for i in 0..n {
@@ -303,7 +458,7 @@ impl World {
         };
         let count = |m: usize| {
             if m == n {
-                1.0
+                last
             } else if counts.equiangular > 0.0 {
                 counts.point + counts.equiangular * equiangular(m)
             } else {
@@ -384,6 +539,11 @@ fn run(args: Args) -> Result<()> {
         "both" => (true, true),
         other => bail!("--connections {other:?}: expected point, equiangular or both"),
     };
+    let sun_along = match args.sun.as_str() {
+        "collision" => false,
+        "along" => true,
+        other => bail!("--sun {other:?}: expected collision or along"),
+    };
     if args.disc.len() != 2 || args.disc.iter().any(|&r| r <= 0.0 || !r.is_finite()) {
         bail!("--disc: expected two radii in km above 0, e.g. 300,1500");
     }
@@ -424,7 +584,7 @@ fn run(args: Args) -> Result<()> {
     );
     for (index, text) in args.directions.iter().enumerate() {
         let dir = parse_direction(text)?;
-        let mut sensor: Vec<(Vertex, f64)> = Vec::new();
+        let mut sensor: Vec<(Vertex, f64, f64)> = Vec::new();
         let mut flights: Vec<Flight> = Vec::new();
         let mut light: Vec<(Vertex, f64)> = Vec::new();
         let mut back_exit: Vec<f64> = Vec::new();
@@ -442,17 +602,34 @@ fn run(args: Args) -> Result<()> {
             sensor.clear();
             flights.clear();
             let (mut x, mut d) = (world.eye, dir);
+            let (mut factor, mut throughput) = (1.0, 1.0);
             while sensor.len() < MAX_VERTICES && world.ray(x, d).is_some() {
                 let exit = if equiangular { world.exit(x, d) } else { 0.0 };
                 flights.push(Flight {
                     origin: x,
                     dir: d,
                     exit,
+                    factor,
                 });
-                let Some((v, t)) = world.flight(x, d, &mut sampler) else {
+                let next = if args.forced {
+                    world.forced_flight(x, d, &mut sampler)
+                } else {
+                    world.flight(x, d, &mut sampler).map(|(v, t)| (v, t, 1.0))
+                };
+                let Some((v, t, chance)) = next else {
                     break;
                 };
-                sensor.push((v, t));
+                factor *= chance;
+                sensor.push((v, t, factor));
+                throughput *= chance * v.sigma_s / v.sigma_t;
+                if args.forced {
+                    let q = (throughput / 0.03).min(1.0);
+                    if sampler.next_f64() >= q {
+                        break;
+                    }
+                    factor /= q;
+                    throughput /= q;
+                }
                 d = world.sample_direction(&v, d, &mut sampler);
                 x = v.x;
             }
@@ -470,12 +647,42 @@ fn run(args: Args) -> Result<()> {
                     }
                 }
             };
+            // The first k − 1 sensor vertices and a point `vz` drawn along
+            // flight k, `t_in` beyond its start.
+            let flight_part = |path: &mut FullPath, k: usize, vz: Vertex, t_in: f64| {
+                sensor_part(path, k - 1);
+                if k == 1 {
+                    path.t_eye = t_in;
+                } else {
+                    path.t.push(t_in);
+                }
+                path.v.push(vz);
+                path.exit.push(flights[k - 1].exit);
+            };
             let (mut s, mut pc, mut ec) = (0.0, 0.0, 0.0);
-            for k in 1..=sensor.len() {
-                let tr = world.sun_transmittance(sensor[k - 1].0.x);
-                if tr > 0.0 {
-                    sensor_part(&mut path, k);
-                    s += world.contribution(&path, k, tr, &counts, &mut phase);
+            if sun_along {
+                for (k, f) in flights.iter().enumerate().map(|(i, f)| (i + 1, f)) {
+                    let Some(density) = world.sun_density(f.origin, f.dir) else {
+                        continue;
+                    };
+                    let t = density.sample(&mut sampler);
+                    let z = f.origin + t * f.dir;
+                    let Some(vz) = world.vertex_at(z) else { continue };
+                    let (t_in, tr) = ((-density.tau_at(t)).exp(), world.sun_transmittance(z));
+                    if tr == 0.0 || vz.sigma_s == 0.0 || t_in == 0.0 {
+                        continue;
+                    }
+                    flight_part(&mut path, k, vz, t_in);
+                    let last = density.pdf(t) / (vz.sigma_t * t_in);
+                    s += f.factor * world.contribution(&path, k, tr, &counts, &mut phase, last);
+                }
+            } else {
+                for k in 1..=sensor.len() {
+                    let tr = world.sun_transmittance(sensor[k - 1].0.x);
+                    if tr > 0.0 {
+                        sensor_part(&mut path, k);
+                        s += sensor[k - 1].2 * world.contribution(&path, k, tr, &counts, &mut phase, 1.0);
+                    }
                 }
             }
             for _ in 0..args.lights {
@@ -509,6 +716,22 @@ fn run(args: Args) -> Result<()> {
                     }
                 };
                 let sun_tr = light.first().map_or(0.0, |l| l.1);
+                // With sun connections along flights: the density of the
+                // first light vertex as a point drawn along the flight from
+                // `from` toward it, over its density at a collision there.
+                let along_last = |from: DVec3, t_from: f64| {
+                    let y1 = light[0].0;
+                    let d = y1.x - from;
+                    let t = d.length();
+                    world
+                        .sun_density(from, d / t)
+                        .map_or(0.0, |density| density.pdf(t) / (y1.sigma_t * t_from))
+                };
+                let second_last = if sun_along && light.len() >= 2 {
+                    along_last(light[1].0.x, light[1].1)
+                } else {
+                    0.0
+                };
                 // Joins the path's sensor part, ending at `from` (its k-th
                 // vertex), to light vertex j over a transmittance `tc`.
                 let mut connect = |path: &mut FullPath, k: usize, from: DVec3, j: usize, tc: f64| {
@@ -522,7 +745,12 @@ fn run(args: Args) -> Result<()> {
                         });
                     }
                     light_part(path, j);
-                    world.contribution(path, k, sun_tr, &counts, &mut phase)
+                    let last = match (sun_along, j) {
+                        (false, _) => 1.0,
+                        (true, 1) => along_last(from, tc),
+                        (true, _) => second_last,
+                    };
+                    world.contribution(path, k, sun_tr, &counts, &mut phase, last)
                 };
                 if point {
                     for k in 1..=sensor.len() {
@@ -534,7 +762,7 @@ fn run(args: Args) -> Result<()> {
                                 continue;
                             }
                             sensor_part(&mut path, k);
-                            pc += connect(&mut path, k, xk, j, tc);
+                            pc += sensor[k - 1].2 * connect(&mut path, k, xk, j, tc);
                         }
                     }
                 }
@@ -547,24 +775,13 @@ fn run(args: Args) -> Result<()> {
                             let yj = light[j - 1].0.x;
                             let t = equiangular_sample(f.origin, f.dir, f.exit, yj, sampler.next_f64());
                             let z = f.origin + t * f.dir;
-                            let levels = world.medium.levels_km();
-                            let Some(layer) = layer_at(levels, world.geometry.altitude(z).max(levels[0]), 0.0) else {
-                                continue;
-                            };
-                            let vz = world.vertex(z, layer);
+                            let Some(vz) = world.vertex_at(z) else { continue };
                             let (t_in, tc) = (world.transmittance(f.origin, z), world.transmittance(z, yj));
                             if tc == 0.0 || t_in == 0.0 || vz.sigma_s == 0.0 {
                                 continue;
                             }
-                            sensor_part(&mut path, k - 1);
-                            if k == 1 {
-                                path.t_eye = t_in;
-                            } else {
-                                path.t.push(t_in);
-                            }
-                            path.v.push(vz);
-                            path.exit.push(f.exit);
-                            ec += connect(&mut path, k, z, j, tc);
+                            flight_part(&mut path, k, vz, t_in);
+                            ec += f.factor * connect(&mut path, k, z, j, tc);
                         }
                     }
                 }
