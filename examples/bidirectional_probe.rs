@@ -88,7 +88,7 @@ struct Args {
     /// How sensor subpaths reach the sun: "collision" (a shadow ray from
     /// every collision) or "along" (from one point drawn along every
     /// flight, as the tracer's sun-aware connections; here from a
-    /// piecewise-constant density over pieces of at most 2 km, mixed 0.8 :
+    /// piecewise-constant density over pieces of at most `--piece-km`, mixed 0.8 :
     /// 0.2 with the flight's own).
     #[arg(long, default_value = "collision")]
     sun: String,
@@ -106,6 +106,9 @@ struct Args {
     /// mixture. 0: none.
     #[arg(long, default_value_t = 0.0)]
     lobe: f64,
+    /// The longest piece (km) of the `--sun along` density.
+    #[arg(long, default_value_t = 2.0)]
+    piece_km: f64,
 }
 
 const LOBE: PhaseFunction = PhaseFunction::HenyeyGreenstein { g: 0.8 };
@@ -124,7 +127,6 @@ struct SunDensity {
 }
 
 const SUN_SHARE: f64 = 0.8;
-const SUN_PIECE_KM: f64 = 2.0;
 
 impl SunDensity {
     fn piece_at(&self, t: f64) -> usize {
@@ -224,6 +226,8 @@ struct World {
     disc: [f64; 2],
     /// The sensor side's lobe share (`--lobe`).
     lobe: f64,
+    /// The longest piece of the sun-connection density (`--piece-km`).
+    piece_km: f64,
 }
 
 impl World {
@@ -371,7 +375,7 @@ impl World {
                 return ControlFlow::Break(());
             }
             let sigma = self.medium.layer_sigma_t(seg.layer);
-            let n = ((seg.t1 - seg.t0) / SUN_PIECE_KM).ceil().max(1.0) as usize;
+            let n = ((seg.t1 - seg.t0) / self.piece_km).ceil().max(1.0) as usize;
             let len = (seg.t1 - seg.t0) / n as f64;
             for i in 0..n {
                 let t0 = seg.t0 + i as f64 * len;
@@ -578,6 +582,9 @@ fn run(args: Args) -> Result<()> {
     if args.disc.len() != 2 || args.disc.iter().any(|&r| r <= 0.0 || !r.is_finite()) {
         bail!("--disc: expected two radii in km above 0, e.g. 300,1500");
     }
+    if !(args.piece_km > 0.0 && args.piece_km.is_finite()) {
+        bail!("--piece-km {}: expected a length in km above 0", args.piece_km);
+    }
     if !(0.0..1.0).contains(&args.lobe) {
         bail!("--lobe {}: expected a share in [0, 1)", args.lobe);
     }
@@ -605,6 +612,7 @@ fn run(args: Args) -> Result<()> {
         eye: job.geometry().observer_position(task.observer_altitude_km),
         disc: [args.disc[0], args.disc[1]],
         lobe: args.lobe,
+        piece_km: args.piece_km,
     };
     println!(
         "{} ({}), {} paths per direction, seed {}, {} light subpaths per sample through discs of {} and {} km, connections {}, sun {}, forced {}, lobe {}",
