@@ -106,6 +106,16 @@ struct Args {
     /// mixture. 0: none.
     #[arg(long, default_value_t = 0.0)]
     lobe: f64,
+    /// With `--sun along` and no light subpaths: at every collision, this
+    /// many more directions drawn as the path's own (not followed), each
+    /// with its point along the flight toward the sun; the path's own
+    /// flight and these share the estimate of that vertex's in-scattered
+    /// sunlit single scattering equally.
+    #[arg(long, default_value_t = 0)]
+    extra: u32,
+    /// Where `--extra` applies: "all" collisions or the "first" only.
+    #[arg(long, default_value = "all")]
+    extra_at: String,
     /// The longest piece (km) of the `--sun along` density.
     #[arg(long, default_value_t = 2.0)]
     piece_km: f64,
@@ -242,6 +252,23 @@ impl World {
             depolarization: o.rayleigh_depolarization,
             g: o.aerosol_g,
         }
+    }
+
+    /// A direction from `v` for a sensor subpath arriving along `d_in`:
+    /// from the phase function or, with share `lobe`, the lobe; and its
+    /// weight, the phase function over the mixture.
+    fn scatter(&self, v: &Vertex, d_in: DVec3, sampler: &mut Sampler) -> (DVec3, f64) {
+        if self.lobe <= 0.0 {
+            return (self.sample_direction(v, d_in, sampler), 1.0);
+        }
+        let next = if sampler.next_f64() < self.lobe {
+            LOBE.sample_direction(self.lobe_axis(v.x), sampler.next2()).0
+        } else {
+            self.sample_direction(v, d_in, sampler)
+        };
+        let phase = self.phase(v, d_in.dot(next));
+        let lobe = LOBE.pdf(self.lobe_axis(v.x).dot(next));
+        (next, phase / ((1.0 - self.lobe) * phase + self.lobe * lobe))
     }
 
     /// The axis of the lobe toward the sunlit air at `x`: 5° above the
@@ -588,6 +615,14 @@ fn run(args: Args) -> Result<()> {
     if !(0.0..1.0).contains(&args.lobe) {
         bail!("--lobe {}: expected a share in [0, 1)", args.lobe);
     }
+    let extra_first = match args.extra_at.as_str() {
+        "all" => false,
+        "first" => true,
+        other => bail!("--extra-at {other:?}: expected all or first"),
+    };
+    if args.extra > 0 && (args.lights > 0 || args.sun != "along") {
+        bail!("--extra: only with --sun along and --lights 0");
+    }
     if args.paths < 2 {
         bail!("--paths: at least 2");
     }
@@ -676,18 +711,9 @@ fn run(args: Args) -> Result<()> {
                     factor /= q;
                     throughput /= q;
                 }
-                let next = if args.lobe > 0.0 && sampler.next_f64() < args.lobe {
-                    LOBE.sample_direction(world.lobe_axis(v.x), sampler.next2()).0
-                } else {
-                    world.sample_direction(&v, d, &mut sampler)
-                };
-                if args.lobe > 0.0 {
-                    let phase = world.phase(&v, d.dot(next));
-                    let lobe = LOBE.pdf(world.lobe_axis(v.x).dot(next));
-                    let weight = phase / ((1.0 - args.lobe) * phase + args.lobe * lobe);
-                    factor *= weight;
-                    throughput *= weight;
-                }
+                let (next, weight) = world.scatter(&v, d, &mut sampler);
+                factor *= weight;
+                throughput *= weight;
                 d = next;
                 x = v.x;
             }
@@ -719,7 +745,13 @@ fn run(args: Args) -> Result<()> {
             };
             let (mut s, mut pc, mut ec) = (0.0, 0.0, 0.0);
             if sun_along {
+                // The share of a flight's estimate past the first (`--extra`).
+                let share = 1.0 / (1.0 + f64::from(args.extra));
+                // Flight k leaves collision k − 1: its estimate is shared
+                // where that collision has extra directions.
+                let split_upto = if extra_first { 1.min(sensor.len()) } else { sensor.len() };
                 for (k, f) in flights.iter().enumerate().map(|(i, f)| (i + 1, f)) {
+                    let share = if k >= 2 && k - 1 <= split_upto { share } else { 1.0 };
                     let Some(density) = world.sun_density(f.origin, f.dir) else {
                         continue;
                     };
@@ -732,7 +764,30 @@ fn run(args: Args) -> Result<()> {
                     }
                     flight_part(&mut path, k, vz, t_in);
                     let last = density.pdf(t) / (vz.sigma_t * t_in);
-                    s += f.factor * world.contribution(&path, k, tr, &counts, &mut phase, last);
+                    s += share * f.factor * world.contribution(&path, k, tr, &counts, &mut phase, last);
+                }
+                for j in 1..=split_upto {
+                    for _ in 0..args.extra {
+                        let (v, d_in) = (sensor[j - 1].0, flights[j - 1].dir);
+                        let (dir, weight) = world.scatter(&v, d_in, &mut sampler);
+                        let Some(density) = world.sun_density(v.x, dir) else {
+                            continue;
+                        };
+                        let t = density.sample(&mut sampler);
+                        let z = v.x + t * dir;
+                        let Some(vz) = world.vertex_at(z) else { continue };
+                        let (t_in, tr) = ((-density.tau_at(t)).exp(), world.sun_transmittance(z));
+                        if tr == 0.0 || vz.sigma_s == 0.0 || t_in == 0.0 {
+                            continue;
+                        }
+                        sensor_part(&mut path, j);
+                        path.t.push(t_in);
+                        path.v.push(vz);
+                        path.exit.push(0.0);
+                        let last = density.pdf(t) / (vz.sigma_t * t_in);
+                        let c = world.contribution(&path, j + 1, tr, &counts, &mut phase, last);
+                        s += share * sensor[j - 1].2 * weight * c;
+                    }
                 }
             } else {
                 for k in 1..=sensor.len() {
