@@ -1,6 +1,6 @@
 //! A measurement, not a feature: does a bidirectional estimator carry
 //! twilight light more cheaply than the tracer's sun-aware connections?
-//! (README, "Measured on 2026-11-28 and not kept", item 13.)
+//! (README, "Measured on 2026-11-28 and not kept", items 13 and 14.)
 //!
 //! For one wavelength, scalar (I only), a point sun, a black ground and
 //! the layered medium of a directions job's first task (spherical
@@ -24,6 +24,10 @@
 //!   (each split between the two subpaths with at least one sensor
 //!   vertex, and each way of drawing the last sensor vertex), so the
 //!   estimate is unbiased whatever the subpaths' densities.
+//!
+//! With `--extra N` (and no light subpaths) each collision also gets N
+//! directions that are not followed, only connected to the sun along
+//! their flights (README, item 14).
 //!
 //! With `--sun along --forced --lobe 0.3` its sensor side is about as
 //! noisy as the tracer's (a fixed lobe, cruder densities, no Mie phase
