@@ -232,6 +232,8 @@ struct Counts {
 
 struct World {
     medium: Medium,
+    /// Each layer's σ_t, for locating forced collisions.
+    sigma_t: Vec<f64>,
     geometry: Geometry,
     radius: f64,
     top_radius: f64,
@@ -354,8 +356,7 @@ impl World {
             return None;
         }
         let tau = forced_distance(sampler.next_f64(), chance);
-        let sigma: Vec<f64> = (0..levels.len() - 1).map(|l| self.medium.layer_sigma_t(l)).collect();
-        let c = locate_with(&sigma, &self.geometry, levels, &ray, tau);
+        let c = locate_with(&self.sigma_t, &self.geometry, levels, &ray, tau);
         Some((self.vertex(origin + c.t * dir, c.layer), (-tau).exp(), chance))
     }
 
@@ -643,6 +644,9 @@ fn run(args: Args) -> Result<()> {
     let medium = Medium::new(&task.atmosphere, 0, MediumModel::Layered, 1.0);
     let top = medium.levels_km()[medium.levels_km().len() - 1];
     let world = World {
+        sigma_t: (0..medium.levels_km().len() - 1)
+            .map(|l| medium.layer_sigma_t(l))
+            .collect(),
         medium,
         geometry: job.geometry(),
         radius: radius_km,
