@@ -87,6 +87,14 @@ pub const BENCH_TARGET: f64 = 0.05;
 const BENCH_PILOT: u64 = 64;
 const BENCH_MAX_SAMPLES: u64 = 16384;
 
+/// The `[render]` keys of the benchmark's noise target.
+pub fn target_keys() -> String {
+    format!(
+        "noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}\n\
+         noise_target_albedos = \"above_zero\""
+    )
+}
+
 /// The benchmark's job: the subset (or the quick one) at `samples` (the
 /// `[render]` keys of its sample count), rendered with `seed`.
 pub fn job_text(quick: bool, samples: &str, seed: u64) -> String {
@@ -189,12 +197,7 @@ pub fn select_tasks<'a>(job: &'a Job, patterns: &[String]) -> Result<Vec<&'a Tas
 pub fn run(quick: bool, fixed: Option<u64>, seed: u64, patterns: &[String], out: &mut dyn Write) -> Result<(f64, f64)> {
     let samples = match fixed {
         Some(n) => format!("samples = {n}"),
-        None => {
-            format!(
-                "noise_target = {BENCH_TARGET}\npilot_samples = {BENCH_PILOT}\nmax_samples = {BENCH_MAX_SAMPLES}\n\
-                 noise_target_albedos = \"above_zero\""
-            )
-        }
+        None => target_keys(),
     };
     let text = job_text(quick, &samples, seed);
     let job = Job::parse(&text, "<grid benchmark>", std::path::Path::new("."))?;
@@ -294,6 +297,17 @@ mod tests {
         )
         .unwrap();
         assert_eq!(job.tasks.len(), 24);
+    }
+
+    #[test]
+    fn the_example_job_is_the_benchmarks_own() {
+        // examples/grid_bench.toml, its comments left out, line for line
+        // the job `bench --grid` renders at seed 1, so that rendering it
+        // gives the benchmark's images.
+        let example = include_str!("../../examples/grid_bench.toml");
+        let lines: Vec<&str> = example.lines().filter(|l| !l.starts_with('#')).collect();
+        let own = job_text(false, &target_keys(), 1);
+        assert_eq!(lines, own.lines().collect::<Vec<_>>());
     }
 
     #[test]
