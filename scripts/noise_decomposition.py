@@ -12,8 +12,9 @@ light were known exactly, e.g. from an estimate shared by every pixel:
   variance in the numerator, I_se(0)^2 * samples / I(a)^2 (the ground's
   part of the variance, and its covariance with the path radiance,
   gone);
-- per pixel and spectral group (the bands that share a `samples`
-  channel), the worst of those over the group's bands and the albedos
+- per pixel and spectral group (the bands whose `samples` channels are
+  equal: a noise target allocates each group its own, while a
+  fixed-sample render's groups look like one), the worst of those over the group's bands and the albedos
   above 0: the paths that pixel needs to reach a relative standard error
   of `target`, worst over 1/target^2 (the same for both, so the ratio
   does not depend on it);
