@@ -15,7 +15,6 @@ mod common;
 
 use std::path::Path;
 
-use atmosim::io::exr::{Channel, write_exr};
 use atmosim::job::transmittance::Grid;
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::sensor::camera::{Camera, Hemisphere, Projection};
@@ -26,6 +25,7 @@ use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
+use common::synthetic_sky::{SyntheticSky, sqrt_t, write_render as write_synthetic, write_transmittance_table};
 use common::{atmosim, run_ok};
 
 const WAVELENGTHS: [f64; 2] = [500.0, 600.0];
@@ -61,106 +61,22 @@ fn write_render(dir: &Path, elevation: f64) {
 /// The synthetic sky as one camera sees it (pixel centres; 0 outside a
 /// fisheye's circle).
 fn write_camera_render(dir: &Path, elevation: f64, camera: Camera) {
-    std::fs::create_dir_all(dir).unwrap();
-    let (width, height) = camera.size();
-    let sun = SunPosition {
-        elevation: elevation.to_radians(),
-        azimuth: 0.0,
+    let value = |a: &ViewAngles, c: usize| {
+        let value = sky(a.gamma, a.theta, c);
+        (value, value * dolp(a.gamma))
     };
-    let mut channels = Vec::new();
-    for (c, lambda) in WAVELENGTHS.iter().enumerate() {
-        let mut i = vec![0f32; width * height];
-        let mut q = vec![0f32; width * height];
-        for j in 0..height {
-            for k in camera.active_columns(j) {
-                let Some(ray) = camera.centre_ray(k, j) else { continue };
-                let a = ViewAngles::of(ray.direction, sun, 0.0);
-                let value = sky(a.gamma, a.theta, c);
-                i[j * width + k] = value as f32;
-                q[j * width + k] = (value * dolp(a.gamma)) as f32;
-            }
-        }
-        let name = format!("{lambda:.0}nm_a030");
-        let zeros = vec![0f32; width * height];
-        for (s, v) in [("I", i), ("I_se", zeros.clone()), ("Q", q), ("U", zeros.clone())] {
-            channels.push(Channel {
-                name: format!("{name}.{s}"),
-                samples: v,
-            });
-        }
-    }
-    let attrs: Vec<(String, String)> = [
-        (
-            "sensor",
-            match camera {
-                Camera::Fisheye {
-                    resolution,
-                    hemisphere,
-                    projection,
-                } => format!("fisheye {resolution}x{resolution}, hemisphere {hemisphere:?}, projection {projection:?}"),
-                _ => format!("sphere (equirectangular) {width}x{height}: synthetic"),
-            },
-        ),
-        ("visibility_km", "50".into()),
-        ("planet_radius_km", "6378".into()),
-        ("geometry", "Spherical".into()),
-        ("stokes_frame", "sun_view: synthetic".into()),
-        ("observer_altitude_km", "0".into()),
-        ("sun_elevation_deg", format!("{elevation}")),
-        ("wavelengths_nm", "500 600".into()),
-        ("albedos", format!("{ALBEDO}")),
-        ("units", "W m-2 sr-1 nm-1 (synthetic)".into()),
-        ("polarized", "true".into()),
-        ("samples_per_pixel", "1".into()),
-        ("job_hash", "0123456789abcdef".into()),
-        ("job_file", "synthetic.toml".into()),
-        ("profile", "synthetic".into()),
-        ("aerosol", "synthetic".into()),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k.to_string(), v))
-    .collect();
-    write_exr(&dir.join("image.exr"), width, height, channels, &attrs).unwrap();
-    std::fs::write(dir.join("task.toml"), "band_width_nm = [100.0, 100.0]\n").unwrap();
-}
-
-/// √T of the synthetic tables: rank 2 over (node) × (channel).
-fn sqrt_t(a_km: f64, d_km: f64, channel: usize) -> f64 {
-    let x = (-a_km / 8.0).exp() * (d_km / 400.0);
-    (-(0.2 + 0.1 * channel as f64) * x).exp().min(1.0) * 0.5 + 0.5 * (-x).exp()
+    let synthetic = SyntheticSky {
+        wavelengths_nm: &WAVELENGTHS,
+        band_width_nm: 100.0,
+        albedo: ALBEDO,
+        value: &value,
+        noise: None,
+    };
+    write_synthetic(dir, elevation, camera, &synthetic);
 }
 
 fn write_table(dir: &Path) {
-    std::fs::create_dir_all(dir).unwrap();
-    let grid = Grid::sky_model_runtime(8, 12);
-    let (n_a, n_d) = (grid.altitudes_km.len(), grid.distances_km.len());
-    let mut channels = Vec::new();
-    for (c, lambda) in WAVELENGTHS.iter().enumerate() {
-        let mut t = Vec::new();
-        for &a in &grid.altitudes_km {
-            for &d in &grid.distances_km {
-                t.push(sqrt_t(a, d, c).powi(2) as f32);
-            }
-        }
-        channels.push(Channel {
-            name: format!("{lambda:.0}nm.T"),
-            samples: t,
-        });
-    }
-    channels.push(Channel {
-        name: "blocked".into(),
-        samples: vec![0.0; n_a * n_d],
-    });
-    let list = |v: &[f64]| v.iter().map(|x| format!("{x}")).collect::<Vec<_>>().join(" ");
-    let attrs = vec![
-        ("altitudes_km".to_string(), list(&grid.altitudes_km)),
-        ("distances_km".to_string(), list(&grid.distances_km)),
-        ("wavelengths_nm".to_string(), "500 600".to_string()),
-        ("planet_radius_km".to_string(), "6378".to_string()),
-        ("visibility_km".to_string(), "50".to_string()),
-        ("observer_altitude_km".to_string(), "0".to_string()),
-    ];
-    write_exr(&dir.join("transmittance.exr"), n_d, n_a, channels, &attrs).unwrap();
+    write_transmittance_table(dir, &WAVELENGTHS);
 }
 
 #[test]

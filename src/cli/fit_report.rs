@@ -1,7 +1,9 @@
 //! `atmosim fit-report FIT.toml`: the dataset that `atmosim fit FIT.toml`
 //! wrote, compared with the renders it came from (and optionally with
-//! renders between the nodes and transmittance tables off the nodes);
-//! writes `report.md` with box plots.
+//! reference renders of the same configurations, a twin dataset fitted
+//! from renders with another seed, renders between the nodes and
+//! transmittance tables off the nodes); writes `report.md` with box plots
+//! and the per-image figures as CSV.
 
 use std::path::PathBuf;
 
@@ -13,7 +15,10 @@ use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::report::interpolation::interpolation;
 use atmosim::skymodel::report::score::score;
 use atmosim::skymodel::report::transmittance_check::TransmittanceError;
-use atmosim::skymodel::report::{ReportExtras, snr_summary, transmittance_check, write_report};
+use atmosim::skymodel::report::twin::{check_same_grid, seed_to_seed};
+use atmosim::skymodel::report::{
+    ReportExtras, reference_summary, snr_summary, transmittance_check, twin_summary, write_report,
+};
 use atmosim::skymodel::runtime::Model;
 
 use super::common::thread_pool;
@@ -27,6 +32,16 @@ pub struct FitReportArgs {
     /// nodes, for the interpolation ratio.
     #[arg(long)]
     mid: Option<PathBuf>,
+    /// A render job's output directory with reference renders of the
+    /// grid's configurations, made apart from the fit's renders (another
+    /// seed, more samples, any resolution): the dataset against the
+    /// converged sky. Repeat for several.
+    #[arg(long)]
+    reference: Vec<PathBuf>,
+    /// A dataset fitted with the same settings from the same configurations
+    /// rendered with another seed: the render noise the dataset inherits.
+    #[arg(long)]
+    twin: Option<PathBuf>,
     /// A transmittance job's output directory with tables off the fitted
     /// nodes.
     #[arg(long)]
@@ -49,6 +64,21 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         .as_ref()
         .map(|d| renders::scan(std::slice::from_ref(d)))
         .transpose()?;
+    let reference = if args.reference.is_empty() {
+        None
+    } else {
+        Some(renders::scan(&args.reference)?)
+    };
+    let twin = args
+        .twin
+        .as_ref()
+        .map(|p| -> anyhow::Result<Model> {
+            let name = p.display().to_string();
+            let twin = Model::new(&name, Dataset::read(p)?, SolarSpectrum::kurucz()?)?;
+            check_same_grid(&model, &twin, &name)?;
+            Ok(twin)
+        })
+        .transpose()?;
     let out = args
         .out
         .clone()
@@ -60,6 +90,34 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         dataset: name.clone(),
         ..Default::default()
     };
+    if let Some(reference) = &reference {
+        extras.reference = pool.install(|| score(&model, reference))?;
+        let samples: Vec<u64> = reference.configs.iter().map(|c| c.samples).collect();
+        let (w, h) = reference.configs.first().map_or((0, 0), |c| match &c.source {
+            renders::Source::Sphere { camera, .. } => camera.size(),
+            renders::Source::Fisheyes { up_camera, .. } => {
+                let n = up_camera.size().0;
+                (2 * n, n)
+            }
+        });
+        extras.reference_source = format!(
+            "{}; {w}x{h}, {} to {} samples per pixel",
+            args.reference
+                .iter()
+                .map(|p| format!("`{}`", p.display()))
+                .collect::<Vec<_>>()
+                .join(", "),
+            samples.iter().min().unwrap_or(&0),
+            samples.iter().max().unwrap_or(&0)
+        );
+    }
+    if let Some(twin) = &twin {
+        extras.twin = pool.install(|| seed_to_seed(&model, twin, &grid))?;
+        extras.twin_source = format!(
+            "`{}`",
+            args.twin.as_ref().map_or(String::new(), |p| p.display().to_string())
+        );
+    }
     if let Some(mid) = &mid {
         extras.interpolation = pool.install(|| interpolation(&model, mid, &settings))?;
     }
@@ -105,6 +163,29 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         out.join("report.md").display(),
         scores.len()
     );
+    if let Some(r) = reference_summary(&extras.reference) {
+        println!(
+            "against the references ({} images): SNR mean {:.2} dB, minimum {:.2} dB; their noise floor mean {:.2} dB, \
+             minimum {:.2} dB; debiased SNR mean {:.2} dB, minimum {:.2} dB ({} unresolved, at their lower bound); \
+             polarisation error mean {}",
+            r.images,
+            r.snr_db.0,
+            r.snr_db.1,
+            r.noise_floor_db.0,
+            r.noise_floor_db.1,
+            r.debiased_snr_db.0,
+            r.debiased_snr_db.1,
+            r.unresolved,
+            r.polarisation_error.map_or("—".into(), |p| format!("{:.4}", p.0))
+        );
+    }
+    if let Some(((m, lo), pol)) = twin_summary(&extras.twin) {
+        println!(
+            "seed to seed ({} images): SNR mean {m:.2} dB, minimum {lo:.2} dB; polarisation difference mean {}",
+            extras.twin.len(),
+            pol.map_or("—".into(), |p| format!("{:.4}", p.0))
+        );
+    }
     if !extras.interpolation.is_empty() {
         let max = extras.interpolation.iter().map(|s| s.ratio()).fold(0.0f64, f64::max);
         println!(

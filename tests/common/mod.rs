@@ -5,6 +5,8 @@
 //! running the binary as a user does.
 #![allow(dead_code)]
 
+pub mod synthetic_sky;
+
 use std::path::Path;
 
 use atmosim::compat::significance::sidak_threshold;

@@ -41,7 +41,9 @@ pub struct ConfigRender {
     pub source: Source,
     /// The Stokes frame the images were written in.
     pub frame: StokesFrame,
-    /// Samples per pixel (of each image).
+    /// Samples per pixel (of each image); for a render to a noise target,
+    /// the task's paths over the image's pixels (a mean over the image,
+    /// the mirrored half counting as none).
     pub samples: u64,
 }
 
@@ -231,7 +233,19 @@ fn task_info(dir: &Path) -> Result<TaskInfo> {
         units: get("units")?,
         frame,
         polarised: get("polarized")? == "true",
-        samples: number("samples_per_pixel")? as u64,
+        samples: match number("samples_per_pixel") {
+            Ok(n) => n as u64,
+            // A noise target names itself there: the task's paths per pixel.
+            Err(_) => {
+                let camera = camera_of(&get("sensor")?, &name)?;
+                let (w, h) = camera.size();
+                let paths = table
+                    .get("paths")
+                    .and_then(|v| v.as_integer())
+                    .ok_or_else(|| Error::data(&name, "a noise-target render whose task.toml gives no `paths`"))?;
+                (paths.max(0) as u64) / (w * h).max(1) as u64
+            }
+        },
         job: (get("job_hash")?, get("job_file")?),
         atmosphere: format!("profile {}, aerosol {}", get("profile")?, get("aerosol")?),
     })

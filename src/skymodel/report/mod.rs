@@ -6,12 +6,21 @@
 //! the fit's figures), the interpolation ratio at renders between the
 //! nodes, and the transmittance's largest absolute error on and off the
 //! nodes; written as Markdown.
+//!
+//! Against the converged sky: the same figures against reference renders
+//! of the grid's configurations made apart from the fit's renders (more
+//! samples, any resolution), with the references' own noise floor and the
+//! SNR with their noise taken out ([`score::Sums::debiased_snr_db`]); and
+//! the render noise the dataset inherits, from a twin dataset fitted from
+//! renders with another seed ([`twin`]). Each per-image table is also
+//! written as CSV.
 
 pub mod boxplot;
 pub mod half_loss;
 pub mod interpolation;
 pub mod score;
 pub mod transmittance_check;
+pub mod twin;
 
 use std::path::Path;
 
@@ -19,6 +28,7 @@ use boxplot::{five_numbers, write_box_plot};
 use interpolation::InterpolationScore;
 use score::ImageScore;
 use transmittance_check::TransmittanceError;
+use twin::TwinScore;
 
 use crate::error::Result;
 use crate::io::atomic::write_atomic;
@@ -37,6 +47,133 @@ pub struct ReportExtras {
     /// The halves' loss: the SNR of the written dataset against its
     /// unrounded fit, (mean, minimum) over the images, in dB.
     pub half_float_snr_db: Option<(f64, f64)>,
+    /// The dataset against reference renders (`--reference`), and where
+    /// they came from.
+    pub reference: Vec<ImageScore>,
+    pub reference_source: String,
+    /// The seed-to-seed comparison with a twin dataset (`--twin`).
+    pub twin: Vec<TwinScore>,
+    pub twin_source: String,
+}
+
+/// (mean, minimum) of `values`; NaN for none.
+pub fn mean_min(values: &[f64]) -> (f64, f64) {
+    if values.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    (
+        values.iter().sum::<f64>() / values.len() as f64,
+        values.iter().copied().fold(f64::INFINITY, f64::min),
+    )
+}
+
+/// The summary of the dataset against reference renders.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceSummary {
+    pub images: usize,
+    /// SNR against the references as they are: (mean, minimum), dB.
+    pub snr_db: (f64, f64),
+    /// The references' own noise floor: (mean, minimum), dB.
+    pub noise_floor_db: (f64, f64),
+    /// The debiased SNR, images whose error the references' noise does not
+    /// resolve counted at their lower bound: (mean, minimum), dB.
+    pub debiased_snr_db: (f64, f64),
+    /// How many images were counted at their lower bound.
+    pub unresolved: usize,
+    /// The polarisation error: (mean, maximum).
+    pub polarisation_error: Option<(f64, f64)>,
+    /// NMAE: (mean, maximum).
+    pub nmae: (f64, f64),
+}
+
+/// The figures of `reference` scores; `None` for none.
+pub fn reference_summary(reference: &[ImageScore]) -> Option<ReferenceSummary> {
+    if reference.is_empty() {
+        return None;
+    }
+    let pick = |f: fn(&ImageScore) -> f64| reference.iter().map(f).collect::<Vec<f64>>();
+    let max = |v: &[f64]| v.iter().copied().fold(0.0f64, f64::max);
+    let pol: Vec<f64> = reference.iter().filter_map(|s| s.polarisation_error).collect();
+    let nmae = pick(|s| s.nmae);
+    Some(ReferenceSummary {
+        images: reference.len(),
+        snr_db: mean_min(&pick(|s| s.snr_db)),
+        noise_floor_db: mean_min(&pick(|s| s.noise_floor_db)),
+        debiased_snr_db: mean_min(&pick(|s| s.debiased_snr_db.unwrap_or(s.debiased_snr_lower_db))),
+        unresolved: reference.iter().filter(|s| s.debiased_snr_db.is_none()).count(),
+        polarisation_error: (!pol.is_empty()).then(|| (pol.iter().sum::<f64>() / pol.len() as f64, max(&pol))),
+        nmae: (nmae.iter().sum::<f64>() / nmae.len() as f64, max(&nmae)),
+    })
+}
+
+/// (mean, extreme) of a figure over images.
+pub type Spread = (f64, f64);
+
+/// The summary of a seed-to-seed comparison: (seed-to-seed SNR mean and
+/// minimum, dB; the polarisation difference's mean and maximum).
+pub fn twin_summary(twin: &[TwinScore]) -> Option<(Spread, Option<Spread>)> {
+    if twin.is_empty() {
+        return None;
+    }
+    let snr: Vec<f64> = twin.iter().map(|t| t.seed_to_seed_snr_db).collect();
+    let pol: Vec<f64> = twin.iter().filter_map(|t| t.polarisation_difference).collect();
+    Some((
+        mean_min(&snr),
+        (!pol.is_empty()).then(|| {
+            (
+                pol.iter().sum::<f64>() / pol.len() as f64,
+                pol.iter().copied().fold(0.0f64, f64::max),
+            )
+        }),
+    ))
+}
+
+/// The per-image scores as CSV.
+pub fn scores_csv(scores: &[ImageScore]) -> String {
+    let mut s = String::from(
+        "visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,snr_db,noise_floor_db,debiased_snr_db,\
+         debiased_snr_lower_db,debiased_snr_sd_db,nmae,polarisation_error\n",
+    );
+    for x in scores {
+        s.push_str(&format!(
+            "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.6},{}\n",
+            x.visibility_km,
+            x.albedo,
+            x.altitude_m,
+            x.elevation_deg,
+            x.wavelength_nm,
+            x.snr_db,
+            x.noise_floor_db,
+            x.debiased_snr_db.map_or(String::new(), |v| format!("{v:.4}")),
+            x.debiased_snr_lower_db,
+            x.debiased_snr_sd_db,
+            x.nmae,
+            x.polarisation_error.map_or(String::new(), |v| format!("{v:.6}"))
+        ));
+    }
+    s
+}
+
+/// The seed-to-seed scores as CSV.
+pub fn twin_csv(twin: &[TwinScore]) -> String {
+    let mut s = String::from(
+        "visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,seed_to_seed_snr_db,inherited_snr_db,\
+         polarisation_difference\n",
+    );
+    for t in twin {
+        s.push_str(&format!(
+            "{},{},{},{},{},{:.4},{:.4},{}\n",
+            t.visibility_km,
+            t.albedo,
+            t.altitude_m,
+            t.elevation_deg,
+            t.wavelength_nm,
+            t.seed_to_seed_snr_db,
+            t.inherited_snr_db(),
+            t.polarisation_difference.map_or(String::new(), |v| format!("{v:.6}"))
+        ));
+    }
+    s
 }
 
 /// Summary figures of the scores: (mean, minimum, median) of the SNR.
@@ -107,6 +244,89 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
     }
     if let Some(s) = extras.core_seconds_per_image {
         md.push_str(&format!("| fit time | {s:.3} core-seconds per image |\n"));
+    }
+    let own_debiased: Vec<f64> = scores
+        .iter()
+        .map(|s| s.debiased_snr_db.unwrap_or(s.debiased_snr_lower_db))
+        .collect();
+    if !own_debiased.is_empty() {
+        let (m, lo) = mean_min(&own_debiased);
+        md.push_str(&format!(
+            "| SNR with the renders' noise taken out, mean / minimum (flatters: the fit follows part of its renders' \
+             noise; see the reference below) | {m:.2} / {lo:.2} dB |\n"
+        ));
+    }
+    if let Some(r) = reference_summary(&extras.reference) {
+        md.push_str(&format!(
+            "\n## Against the converged sky\n\n{} images of reference renders ({}) made apart from the fit's renders, \
+             compared at their pixel centres with the dataset at their configurations (solid-angle weights). The \
+             references' noise adds to the error in expectation: the debiased SNR takes it out (exact in expectation \
+             for renders independent of the fit's); where the references' noise does not resolve an image's error \
+             (its excess over the noise within two standard deviations) the image counts at its lower bound.\n\n\
+             | figure | value |\n|---|---|\n",
+            r.images, extras.reference_source
+        ));
+        md.push_str(&format!(
+            "| SNR against the references, mean / minimum | {:.2} / {:.2} dB |\n\
+             | the references' own noise floor, mean / minimum | {:.2} / {:.2} dB |\n\
+             | SNR against the converged sky (debiased), mean / minimum | {:.2} / {:.2} dB |\n\
+             | images not resolved by the references (counted at their lower bound) | {} |\n\
+             | NMAE, mean / max | {:.4} / {:.4} |\n",
+            r.snr_db.0,
+            r.snr_db.1,
+            r.noise_floor_db.0,
+            r.noise_floor_db.1,
+            r.debiased_snr_db.0,
+            r.debiased_snr_db.1,
+            r.unresolved,
+            r.nmae.0,
+            r.nmae.1
+        ));
+        if let Some((m, x)) = r.polarisation_error {
+            md.push_str(&format!(
+                "| polarisation: radiance-weighted mean abs. error of the degree of polarisation, mean / max | {m:.4} / {x:.4} |\n"
+            ));
+        }
+        md.push_str(
+            "\nPer image (`reference.csv`):\n\n| visibility | albedo | altitude (m) | elevation | channel | SNR (dB) | \
+             reference noise floor (dB) | debiased SNR (dB) | NMAE | pol. error |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        );
+        for s in &extras.reference {
+            md.push_str(&format!(
+                "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.4} | {} |\n",
+                s.visibility_km,
+                s.albedo,
+                s.altitude_m,
+                s.elevation_deg,
+                s.wavelength_nm,
+                s.snr_db,
+                s.noise_floor_db,
+                s.debiased_snr_db
+                    .map_or(format!("≥ {:.2}", s.debiased_snr_lower_db), |v| format!("{v:.2}")),
+                s.nmae,
+                s.polarisation_error.map_or("—".into(), |p| format!("{p:.4}"))
+            ));
+        }
+    }
+    if let Some(((m, lo), pol)) = twin_summary(&extras.twin) {
+        md.push_str(&format!(
+            "\n## Render noise carried into the dataset\n\nThe twin dataset {} was fitted from the same configurations \
+             rendered with an independent seed; both evaluated at the pixel centres of each image. Their difference is \
+             two draws of the noise a dataset inherits from its renders, so one dataset's inherited noise is {TWO:.2} dB \
+             below it.\n\n| figure | value |\n|---|---|\n\
+             | seed-to-seed SNR, mean / minimum | {m:.2} / {lo:.2} dB |\n\
+             | one dataset against its inherited noise, mean / minimum | {:.2} / {:.2} dB |\n",
+            extras.twin_source,
+            m + twin::TWO_DRAWS_DB,
+            lo + twin::TWO_DRAWS_DB,
+            TWO = twin::TWO_DRAWS_DB
+        ));
+        if let Some((pm, px)) = pol {
+            md.push_str(&format!(
+                "| degree of polarisation, radiance-weighted mean abs. difference, mean / max | {pm:.4} / {px:.4} |\n"
+            ));
+        }
+        md.push_str("\nPer image: `twin.csv`.\n");
     }
     md.push_str("\n## Normalised mean absolute error\n\n");
     type Key = fn(&ImageScore) -> f64;
@@ -181,7 +401,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
         }
         md.push('\n');
     }
-    md.push_str("## Per image\n\n| visibility | albedo | altitude (m) | elevation | channel | SNR (dB) | noise floor (dB) | NMAE | pol. error |\n|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("## Per image\n\n(`images.csv`)\n\n| visibility | albedo | altitude (m) | elevation | channel | SNR (dB) | noise floor (dB) | NMAE | pol. error |\n|---|---|---|---|---|---|---|---|---|\n");
     for s in scores {
         md.push_str(&format!(
             "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.4} | {} |\n",
@@ -195,6 +415,13 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             s.nmae,
             s.polarisation_error.map_or("—".into(), |p| format!("{p:.4}"))
         ));
+    }
+    write_atomic(&dir.join("images.csv"), scores_csv(scores).as_bytes())?;
+    if !extras.reference.is_empty() {
+        write_atomic(&dir.join("reference.csv"), scores_csv(&extras.reference).as_bytes())?;
+    }
+    if !extras.twin.is_empty() {
+        write_atomic(&dir.join("twin.csv"), twin_csv(&extras.twin).as_bytes())?;
     }
     write_atomic(&dir.join("report.md"), md.as_bytes())?;
     Ok(md)

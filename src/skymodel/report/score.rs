@@ -8,7 +8,15 @@
 //!   perfect fit would show against these renders;
 //! - NMAE = Σ w·|L − F| / Σ w·|L|;
 //! - the polarisation error Σ w·L·|P − P_F| / Σ w·L, P the rendered signed
-//!   degree of polarisation in the sun–view frame.
+//!   degree of polarisation in the sun–view frame;
+//! - the debiased SNR, the render's known noise taken out of both sums
+//!   ([`Sums::debiased_snr_db`]), with its lower bound where the render's
+//!   noise does not resolve the error.
+//!
+//! The same figures against reference renders (`fit-report --reference`):
+//! renders of the grid's configurations made apart from the fit's, whose
+//! noise the fit cannot have followed, so that the debiased SNR is the
+//! dataset's SNR against the converged sky in expectation.
 
 use rayon::prelude::*;
 
@@ -29,6 +37,13 @@ pub struct ImageScore {
     pub wavelength_nm: f64,
     pub snr_db: f64,
     pub noise_floor_db: f64,
+    /// The SNR with the render's noise taken out ([`Sums::debiased_snr_db`]);
+    /// `None` where the render's noise does not resolve the error.
+    pub debiased_snr_db: Option<f64>,
+    /// Its lower bound ([`Sums::debiased_snr_lower_db`]) and standard
+    /// deviation ([`Sums::debiased_snr_sd_db`]).
+    pub debiased_snr_lower_db: f64,
+    pub debiased_snr_sd_db: f64,
     pub nmae: f64,
     /// `None` without polarisation in the dataset or the renders.
     pub polarisation_error: Option<f64>,
@@ -63,40 +78,133 @@ pub fn parameters_at(v: glam::DVec3, config: &ConfigRender, albedo: f64) -> Para
     }
 }
 
+/// The solid-angle-weighted sums of one comparison of a rendered image L
+/// (standard error se per pixel) with a fitted one F.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Sums {
+    /// Σ w·L².
+    pub signal: f64,
+    /// Σ w·(L − F)².
+    pub error: f64,
+    /// Σ w·se²: the render's own noise power.
+    pub noise: f64,
+    /// Σ w²·Var((L − F)²), estimated with se² as L's variance and
+    /// max((L − F)² − se², 0) as the fit's squared error: the variance of
+    /// `error` as an estimate of its expectation.
+    pub error_variance: f64,
+    /// Σ w·|L − F| and Σ w·|L|.
+    pub abs_error: f64,
+    pub abs_signal: f64,
+    pub weights: f64,
+    /// Σ w·L·|P − P_F| and Σ w·L over the pixels with L > 0.
+    pub pol_error: f64,
+    pub pol_weights: f64,
+}
+
+/// 10·log10(a/b), infinite for b ≤ 0.
+pub fn db(a: f64, b: f64) -> f64 {
+    if b > 0.0 { 10.0 * (a / b).log10() } else { f64::INFINITY }
+}
+
+impl Sums {
+    /// The SNR of F against L (dB).
+    pub fn snr_db(&self) -> f64 {
+        db(self.signal, self.error)
+    }
+
+    /// The render's own noise floor, Σ w·L² / Σ w·se² (dB): the SNR that a
+    /// perfect fit would show against it.
+    pub fn noise_floor_db(&self) -> f64 {
+        db(self.signal, self.noise)
+    }
+
+    /// The SNR of F against the truth the render estimates, its noise taken
+    /// out of both sums: E[Σ w·(L − F)²] = Σ w·(T − F)² + Σ w·se² and
+    /// E[Σ w·L²] = Σ w·T² + Σ w·se², exact in expectation where F does not
+    /// depend on L's noise (a reference rendered apart from the fit's
+    /// renders). `None` where the noise accounts for the whole error within
+    /// two standard deviations of the difference (the error is not resolved
+    /// by this render: [`Sums::debiased_snr_lower_db`] bounds it).
+    pub fn debiased_snr_db(&self) -> Option<f64> {
+        let excess = self.error - self.noise;
+        (excess > 2.0 * self.error_variance.sqrt()).then(|| db(self.signal - self.noise, excess))
+    }
+
+    /// A lower bound on the debiased SNR (dB), about 97.7 % one-sided: the
+    /// error's excess over the noise taken two standard deviations high.
+    pub fn debiased_snr_lower_db(&self) -> f64 {
+        let excess = (self.error - self.noise).max(0.0) + 2.0 * self.error_variance.sqrt();
+        db(self.signal - self.noise, excess)
+    }
+
+    /// The standard deviation of [`Sums::debiased_snr_db`] (dB), to first
+    /// order: 10/ln 10 · sd(error) / (error − noise).
+    pub fn debiased_snr_sd_db(&self) -> f64 {
+        let excess = self.error - self.noise;
+        if excess > 0.0 {
+            10.0 / std::f64::consts::LN_10 * self.error_variance.sqrt() / excess
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The debiased SNR where resolved, else its lower bound (dB).
+    pub fn debiased_or_lower_db(&self) -> f64 {
+        self.debiased_snr_db().unwrap_or_else(|| self.debiased_snr_lower_db())
+    }
+
+    /// Σ w·|L − F| / Σ w·|L|.
+    pub fn nmae(&self) -> f64 {
+        if self.abs_signal > 0.0 {
+            self.abs_error / self.abs_signal
+        } else {
+            0.0
+        }
+    }
+
+    /// The radiance-weighted mean absolute error of the degree of
+    /// polarisation, where both sides have one.
+    pub fn polarisation_error(&self) -> Option<f64> {
+        (self.pol_weights > 0.0).then(|| self.pol_error / self.pol_weights)
+    }
+
+    /// The solid-angle-weighted root-mean-square difference.
+    pub fn rmse(&self) -> f64 {
+        if self.weights > 0.0 {
+            (self.error / self.weights).sqrt()
+        } else {
+            0.0
+        }
+    }
+}
+
 /// The sums of one comparison of a rendered image with a fitted one.
-pub fn compare(
-    layer: &Layer,
-    fitted: &SphereImage,
-    fitted_pol: Option<&SphereImage>,
-) -> (f64, f64, f64, Option<f64>, f64) {
+pub fn compare(layer: &Layer, fitted: &SphereImage, fitted_pol: Option<&SphereImage>) -> Sums {
     let img = &layer.radiance;
-    let (mut signal, mut error, mut noise, mut abs_err, mut abs_sig, mut weights) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    let (mut pol_err, mut pol_w) = (0.0, 0.0);
+    let mut s = Sums::default();
     for j in 0..img.height {
         let w = img.solid_angle(j);
         for i in 0..img.width {
             let k = j * img.width + i;
             let (l, f) = (img.values[k], fitted.values[k]);
-            signal += w * l * l;
-            error += w * (l - f) * (l - f);
-            noise += w * layer.radiance_se.values[k].powi(2);
-            abs_err += w * (l - f).abs();
-            abs_sig += w * l.abs();
-            weights += w;
+            let var = layer.radiance_se.values[k].powi(2);
+            let d2 = (l - f) * (l - f);
+            s.signal += w * l * l;
+            s.error += w * d2;
+            s.noise += w * var;
+            // (L − F)² with L = T + n, n ~ (0, se²): variance 4·b²·se² + 2·se⁴,
+            // doubled because a mirrored render's two halves are one estimate.
+            s.error_variance += 2.0 * w * w * (4.0 * (d2 - var).max(0.0) * var + 2.0 * var * var);
+            s.abs_error += w * (l - f).abs();
+            s.abs_signal += w * l.abs();
+            s.weights += w;
             if let (Some(p), Some(fp)) = (layer.polarisation.as_ref(), fitted_pol) {
-                pol_err += w * l.max(0.0) * (p.values[k] - fp.values[k]).abs();
-                pol_w += w * l.max(0.0);
+                s.pol_error += w * l.max(0.0) * (p.values[k] - fp.values[k]).abs();
+                s.pol_weights += w * l.max(0.0);
             }
         }
     }
-    let db = |a: f64, b: f64| if b > 0.0 { 10.0 * (a / b).log10() } else { f64::INFINITY };
-    (
-        db(signal, error),
-        db(signal, noise),
-        if abs_sig > 0.0 { abs_err / abs_sig } else { 0.0 },
-        (fitted_pol.is_some() && pol_w > 0.0).then(|| pol_err / pol_w),
-        (error / weights).sqrt(),
-    )
+    s
 }
 
 /// The dataset evaluated at every pixel centre of `like` for `config`.
@@ -146,18 +254,21 @@ pub fn each_image<T: Send>(grid: &RenderGrid, f: impl Fn(&ConfigRender, &Layer) 
 pub fn score(model: &Model, grid: &RenderGrid) -> Result<Vec<ImageScore>> {
     each_image(grid, |config, layer| {
         let (f, p) = evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
-        let (snr_db, noise_floor_db, nmae, polarisation_error, rmse) = compare(layer, &f, p.as_ref());
+        let sums = compare(layer, &f, p.as_ref());
         ImageScore {
             visibility_km: config.visibility_km,
             albedo: layer.albedo,
             altitude_m: config.altitude_km * 1000.0,
             elevation_deg: config.elevation_deg,
             wavelength_nm: layer.wavelength_nm,
-            snr_db,
-            noise_floor_db,
-            nmae,
-            polarisation_error,
-            rmse,
+            snr_db: sums.snr_db(),
+            noise_floor_db: sums.noise_floor_db(),
+            debiased_snr_db: sums.debiased_snr_db(),
+            debiased_snr_lower_db: sums.debiased_snr_lower_db(),
+            debiased_snr_sd_db: sums.debiased_snr_sd_db(),
+            nmae: sums.nmae(),
+            polarisation_error: sums.polarisation_error(),
+            rmse: sums.rmse(),
         }
     })
 }
