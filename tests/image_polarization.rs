@@ -198,16 +198,26 @@ fn check(sensor: &str, frame: &str, observer_km: f64, samples: u64) {
 
 #[test]
 fn noise_targeted_pixels_are_unbiased_over_many_seeds() {
+    unbiased_over_seeds("noise_target = 0.03\npilot_samples = 8\nmax_samples = 4000");
+}
+
+#[test]
+fn pixels_of_an_image_held_to_a_target_as_a_whole_are_unbiased_over_many_seeds() {
+    // The image's noise as a whole at 3 %: its pixels' samples follow
+    // their standard deviation times the square root of their solid angle.
+    unbiased_over_seeds("noise_target = 0.03\nnoise_target_per = \"image\"\npilot_samples = 8\nmax_samples = 4000");
+}
+
+fn unbiased_over_seeds(target: &str) {
     // A noise target allocates each pixel's samples from a pilot; the mean
     // is of the allocated samples alone, so it stays unbiased. 150 seeds of
-    // a small fisheye: per pixel, the mean over the seeds (its standard
+    // a small sphere image: per pixel, the mean over the seeds (its standard
     // error from their spread) against the exact pixel mean, and every
     // seed's pixel against it with its own standard error. A sphere image:
     // no pixel is cut by a fisheye's circle, whose midpoint quadrature
     // would not match the pooled precision (≈ 0.1 %).
     const SEEDS: u64 = 150;
     let sensor = "type = \"sphere\"\nresolution = 8";
-    let target = "noise_target = 0.03\npilot_samples = 8\nmax_samples = 4000";
     let first = slab_job(sensor, "meridian", 0.0, target, 0);
     let Sensor::Image(camera) = first.render.sensor.clone() else {
         panic!("not an image")

@@ -19,6 +19,10 @@ pub struct Noise {
     pub above: usize,
     /// Samples per pixel or direction (traced ones): least, median, most.
     pub samples: [u64; 3],
+    /// An image's noise as a whole, √(Σ Ω·se² / Σ Ω·I²) over its pixels
+    /// (solid angle Ω): what `render.noise_target_per = "image"` targets;
+    /// `None` for directions.
+    pub image_rel_noise: Option<f64>,
 }
 
 impl Noise {
@@ -58,6 +62,22 @@ impl Noise {
             max,
             above,
             samples,
+            image_rel_noise: None,
+        }
+    }
+
+    /// The same, with the image's noise as a whole: `tallies` are an
+    /// image's pixels and `solid_angle(p)` the solid angle of pixel `p`.
+    pub fn of_image(tallies: &[Tally], target: f64, solid_angle: impl Fn(usize) -> f64) -> Noise {
+        let (mut noise, mut signal) = (0.0, 0.0);
+        for (p, t) in tallies.iter().enumerate().filter(|(_, t)| t.samples > 0) {
+            let w = solid_angle(p);
+            noise += w * t.standard_error()[0].powi(2);
+            signal += w * t.mean()[0].powi(2);
+        }
+        Noise {
+            image_rel_noise: (signal > 0.0).then(|| (noise / signal).sqrt()),
+            ..Noise::of(tallies, target)
         }
     }
 }
@@ -78,6 +98,10 @@ mod tests {
         assert_eq!(n.counted, 2);
         assert_eq!((n.median, n.max), (1.0, 1.0));
         assert_eq!(n.above, 1);
+        // As an image with solid angles 1, 3, 1, 1: √((1·1 + 3·0) / (1·1 + 3·1)).
+        let image = Noise::of_image(&[a, b, zero, Tally::default()], 0.5, |p| [1.0, 3.0, 1.0, 1.0][p]);
+        assert_eq!(image.image_rel_noise, Some(0.5));
+        assert_eq!(n.image_rel_noise, None);
         assert_eq!(n.samples, [2, 3, 4]);
     }
 }

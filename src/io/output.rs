@@ -58,19 +58,20 @@ pub fn flux_csv(rows: &[FluxRow]) -> String {
 }
 
 /// Header of the noise CSV of a render with a noise target.
-pub const NOISE_CSV_HEADER: &str = "wavelength_nm,albedo,counted,median_rel_se_I,p99_rel_se_I,max_rel_se_I,above_target,samples_min,samples_median,samples_max,targeted";
+pub const NOISE_CSV_HEADER: &str = "wavelength_nm,albedo,counted,median_rel_se_I,p99_rel_se_I,max_rel_se_I,above_target,samples_min,samples_median,samples_max,targeted,image_rel_noise";
 
 /// The noise CSV text: per (wavelength, albedo), the relative standard
 /// error of I over the pixels or directions with a non-zero mean
 /// (`counted`), how many are above the target, their samples, and
 /// whether the target counts the albedo (1) or it only rides along (0,
-/// `render.noise_target_albedos`).
+/// `render.noise_target_albedos`), and for an image its noise as a whole,
+/// √(Σ Ω·se² / Σ Ω·I²) (empty for directions).
 pub fn noise_csv(rows: &[(f64, f64, bool, Noise)]) -> String {
     let mut s = String::from(NOISE_CSV_HEADER);
     s.push('\n');
     for (wavelength_nm, albedo, targeted, n) in rows {
         s.push_str(&format!(
-            "{wavelength_nm},{albedo},{},{:.4e},{:.4e},{:.4e},{},{},{},{},{}\n",
+            "{wavelength_nm},{albedo},{},{:.4e},{:.4e},{:.4e},{},{},{},{},{},{}\n",
             n.counted,
             n.median,
             n.p99,
@@ -79,7 +80,8 @@ pub fn noise_csv(rows: &[(f64, f64, bool, Noise)]) -> String {
             n.samples[0],
             n.samples[1],
             n.samples[2],
-            u8::from(*targeted)
+            u8::from(*targeted),
+            n.image_rel_noise.map_or(String::new(), |r| format!("{r:.4e}"))
         ));
     }
     s

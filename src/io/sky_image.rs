@@ -206,10 +206,11 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         ("samples_per_pixel".into(), match spec.target {
             None => format!("{}", spec.samples),
             Some(t) => format!(
-                "noise target: relative standard error of I {} in every channel and {}, per pixel the samples of \
+                "noise target: relative standard error of I {} {} in every channel and {}, per pixel the samples of \
                  channel 'samples' (or '<wavelength>nm.samples'), {} to {}, allocated by a pilot of {} samples \
                  (not in the means)",
                 t.relative_se,
+                t.per.describe(),
                 t.albedos.describe(),
                 t.pilot,
                 t.max_samples,

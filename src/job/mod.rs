@@ -44,7 +44,7 @@ pub mod spectrum;
 pub mod transmittance;
 
 pub use raw::GeometryKind;
-pub use render::{NoiseTarget, RadianceUnits, RenderSpec, Sensor, TargetAlbedos};
+pub use render::{NoiseTarget, RadianceUnits, RenderSpec, Sensor, TargetAlbedos, TargetScope};
 
 // Resolved job
 

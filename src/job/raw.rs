@@ -235,6 +235,7 @@ pub(super) struct RawRender {
     pub(super) pilot_samples: Option<u64>,
     pub(super) max_samples: Option<u64>,
     pub(super) noise_target_albedos: Option<RawTargetAlbedos>,
+    pub(super) noise_target_per: Option<RawTargetScope>,
     pub(super) seed: Option<u64>,
     pub(super) polarized: Option<bool>,
     pub(super) max_scattering_order: Option<u32>,
@@ -249,6 +250,14 @@ pub(super) struct RawRender {
     pub(super) first_vertex_splitting: Option<bool>,
     pub(super) shared_wavelengths: Option<bool>,
     pub(super) spectral_groups: Option<RawSpectralGroups>,
+}
+
+/// `noise_target_per`: what a noise target's relative error is of.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RawTargetScope {
+    Pixel,
+    Image,
 }
 
 /// `noise_target_albedos`: which albedos a noise target counts.

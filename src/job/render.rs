@@ -7,7 +7,7 @@ use super::context::Ctx;
 use super::raw::{
     OneOrMany, RawGround, RawHemisphere, RawMedium, RawOutput, RawPixelFilter, RawProjection, RawRender, RawResolution,
     RawSensor, RawSensorKind, RawSpectralGroups, RawStokesFrame, RawSun, RawSunSampling, RawSunTransmittance,
-    RawSymmetry, RawTargetAlbedos, RawTrackingLayers, RawUnits,
+    RawSymmetry, RawTargetAlbedos, RawTargetScope, RawTrackingLayers, RawUnits,
 };
 use crate::error::Result;
 use crate::job::options::MediumModel;
@@ -52,6 +52,44 @@ pub struct NoiseTarget {
     pub max_samples: u64,
     /// The albedos whose noise sets the allocation.
     pub albedos: TargetAlbedos,
+    /// What the relative error is of: each direction or pixel, or each
+    /// image as a whole.
+    pub per: TargetScope,
+}
+
+/// What a noise target's relative standard error is of
+/// (`render.noise_target_per`; closed set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TargetScope {
+    /// Each direction or pixel: its standard error of I over its I (the
+    /// default).
+    Pixel,
+    /// Each image (every channel and counted albedo) as a whole: the
+    /// root-mean-square standard error of I over the root-mean-square I,
+    /// solid-angle weighted, √(Σ Ω·se² / Σ Ω·I²): the noise floor that
+    /// `fit-report` shows, −20·log10(t) dB. Samples go where they lower it
+    /// most per path: to each pixel in proportion to its standard
+    /// deviation of I times the square root of its solid angle
+    /// (`crate::run::allocation::image_pixels`). Images only.
+    Image,
+}
+
+impl TargetScope {
+    /// The value of `render.noise_target_per`.
+    pub fn key_value(self) -> &'static str {
+        match self {
+            TargetScope::Pixel => "pixel",
+            TargetScope::Image => "image",
+        }
+    }
+
+    /// What the relative error is of, in words (outputs' metadata).
+    pub fn describe(self) -> &'static str {
+        match self {
+            TargetScope::Pixel => "per direction or pixel",
+            TargetScope::Image => "per image (rms standard error over rms I, solid-angle weighted)",
+        }
+    }
 }
 
 /// Which albedos a noise target counts (`render.noise_target_albedos`;
@@ -248,7 +286,7 @@ pub(super) fn resolve(
     };
 
     let render = render.unwrap_or_default();
-    let target = resolve_target(ctx, &render, &albedos)?;
+    let target = resolve_target(ctx, &render, &albedos, matches!(sensor, Sensor::Image(_)))?;
     let samples = match target {
         Some(t) => t.max_samples,
         None => render.samples.unwrap_or(DEFAULT_SAMPLES),
@@ -373,10 +411,14 @@ pub(super) fn resolve(
 /// The noise target of `[render]`, if any: `noise_target` with its
 /// `pilot_samples` and `max_samples`, which mean nothing without it, as
 /// `samples` means nothing with it.
-fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Option<NoiseTarget>> {
+fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64], image: bool) -> Result<Option<NoiseTarget>> {
     let counted = render.noise_target_albedos.map(|a| match a {
         RawTargetAlbedos::All => TargetAlbedos::All,
         RawTargetAlbedos::AboveZero => TargetAlbedos::AboveZero,
+    });
+    let per = render.noise_target_per.map(|p| match p {
+        RawTargetScope::Pixel => TargetScope::Pixel,
+        RawTargetScope::Image => TargetScope::Image,
     });
     let Some(relative_se) = render.noise_target else {
         for (key, given) in [
@@ -386,6 +428,7 @@ fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Opti
                 "render.noise_target_albedos",
                 counted.map(|a| a.key_value().to_string()),
             ),
+            ("render.noise_target_per", per.map(|p| p.key_value().to_string())),
         ] {
             if let Some(v) = given {
                 return Err(ctx.invalid(
@@ -454,11 +497,21 @@ fn resolve_target(ctx: &Ctx, render: &RawRender, albedos: &[f64]) -> Result<Opti
             "\"all\" (the default), or an albedo above 0 in ground.albedo",
         ));
     }
+    let per = per.unwrap_or(TargetScope::Pixel);
+    if per == TargetScope::Image && !image {
+        return Err(ctx.invalid(
+            "render.noise_target_per",
+            "\"image\"",
+            "a directions sensor has no image to hold to a target as a whole",
+            "\"pixel\" (the default: each direction's own relative error), or an image sensor",
+        ));
+    }
     Ok(Some(NoiseTarget {
         relative_se,
         pilot,
         max_samples,
         albedos: counted,
+        per,
     }))
 }
 

@@ -25,6 +25,18 @@
 //! target, and the grid benchmark's tasks cost 15–30 % more for the same
 //! median.) The count is then held between the pilot's count and the cap
 //! (`render.max_samples`).
+//!
+//! A target for each image as a whole (`render.noise_target_per =
+//! "image"`, [`image_pixels`]) asks instead that the image's noise power,
+//! Σ Ω·se² over its pixels (solid angle Ω), be t² of its signal power
+//! Σ Ω·I², in every channel and counted albedo. The allocation that meets
+//! it with the fewest paths gives pixel k, of per-sample standard deviation
+//! σ_k, n_k = λ·σ_k·√Ω_k samples (minimise Σ n_k subject to
+//! Σ Ω_k·σ_k²/n_k = t²·S: a Lagrange multiplier), with
+//! λ = Σ_j √Ω_j·σ_j / (t²·S). So bright pixels (the sun's aureole) and large
+//! ones get more, dark ones fewer than a per-pixel target gives them. The
+//! pilot estimates σ_k² (the mean over the pixel and its neighbours, as
+//! above) and S; a mirrored pixel's Ω counts its mirror image too.
 
 use crate::film::ground_view::GROUND_VIEW_SAMPLES;
 use crate::film::tally::Tally;
@@ -134,6 +146,117 @@ pub fn pixels(
         .collect()
 }
 
+/// An image's pilot, as [`image_pixels`] reads it.
+#[derive(Debug, Clone, Copy)]
+pub struct ImagePilot<'a> {
+    /// `values` tallies per pixel, pixel-major, `width` pixels a row.
+    pub tallies: &'a [Tally],
+    pub values: usize,
+    pub width: usize,
+    pub symmetry: Symmetry,
+    /// Per pixel its solid angle and that of the pixels copying it (0 for
+    /// untraced pixels).
+    pub weights: &'a [f64],
+    /// The ground view's pilot and the solid angle of the rows showing it.
+    pub ground: Option<(&'a [Tally], f64)>,
+}
+
+/// The allocation of an image held to a target as a whole (see the module
+/// docs): from its pilot's tallies (`values` per pixel, pixel-major), each
+/// pixel's weight (its solid angle and that of the pixels copying it; 0
+/// for untraced pixels) and, for an observer on the ground, the pilot of
+/// the ground view with the solid angle of the rows that show it (one
+/// estimate, so one term of the sums): per pixel, and for the ground view,
+/// the most any counted value needs.
+pub fn image_pixels(pilot: &ImagePilot, target: &NoiseTarget, counted: &[bool]) -> (Vec<u64>, u64) {
+    let ImagePilot {
+        tallies,
+        values,
+        width,
+        symmetry,
+        weights,
+        ground,
+    } = *pilot;
+    let values = values.max(1);
+    let count = tallies.len() / values;
+    let width = width.max(1);
+    let height = count / width;
+    let na = counted.len().max(1);
+    let traced: Vec<bool> = (0..count)
+        .map(|p| tallies[p * values].samples > 0 && weights.get(p).is_some_and(|&w| w > 0.0))
+        .collect();
+    // The pilot's mean and variance of I.
+    let moments = |t: &Tally| -> Option<(f64, f64)> {
+        if t.samples <= t.non_finite + 1 {
+            return None;
+        }
+        let n = (t.samples - t.non_finite) as f64;
+        let mean = t.sum[0] / n;
+        let variance = ((t.sum_sq[0] - t.sum[0] * mean) / (n - 1.0)).max(0.0);
+        (mean.is_finite() && variance.is_finite()).then_some((mean, variance))
+    };
+    let mut need = vec![0.0f64; count];
+    let mut ground_need = 0.0f64;
+    for v in (0..values).filter(|v| counted.get(v % na).copied().unwrap_or(true)) {
+        let own: Vec<Option<(f64, f64)>> = (0..count)
+            .map(|p| {
+                if traced[p] {
+                    moments(&tallies[p * values + v])
+                } else {
+                    None
+                }
+            })
+            .collect();
+        let view = ground.and_then(|(t, w)| Some((moments(t.get(v)?)?, w)));
+        // S = Σ Ω·μ², and Σ √Ω·σ with each pixel's σ² the mean over its
+        // traced neighbourhood.
+        let mut signal: f64 = (0..count)
+            .filter_map(|p| own[p].map(|(mean, _)| weights[p] * mean * mean))
+            .sum();
+        let mut sigma = vec![0.0; count];
+        let mut spend = 0.0;
+        for p in (0..count).filter(|&p| traced[p]) {
+            let (i, j) = ((p % width) as i64, (p / width) as i64);
+            let (mut sum, mut n) = (0.0, 0.0);
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let (x, y) = (i + di, j + dj);
+                    if x < 0 || y < 0 || x >= width as i64 || y >= height as i64 {
+                        continue;
+                    }
+                    let q = y as usize * width + symmetry.traced_column(width, x as usize);
+                    if let Some((_, variance)) = own[q] {
+                        sum += variance;
+                        n += 1.0;
+                    }
+                }
+            }
+            if n > 0.0 {
+                sigma[p] = (sum / n).sqrt();
+                spend += weights[p].sqrt() * sigma[p];
+            }
+        }
+        if let Some(((mean, variance), w)) = view {
+            signal += w * mean * mean;
+            spend += w.sqrt() * variance.sqrt();
+        }
+        if signal <= 0.0 {
+            continue;
+        }
+        let lambda = spend / (target.relative_se * target.relative_se * signal);
+        for p in (0..count).filter(|&p| traced[p]) {
+            need[p] = need[p].max(lambda * sigma[p] * weights[p].sqrt());
+        }
+        if let Some(((_, variance), w)) = view {
+            ground_need = ground_need.max(lambda * variance.sqrt() * w.sqrt());
+        }
+    }
+    let pixels = (0..count)
+        .map(|p| if traced[p] { clamp(need[p], target) } else { 0 })
+        .collect();
+    (pixels, clamp(ground_need, &ground_view(target)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,6 +268,7 @@ mod tests {
         pilot: 4,
         max_samples: 1000,
         albedos: crate::job::TargetAlbedos::All,
+        per: crate::job::TargetScope::Pixel,
     };
     const ALL: &[bool] = &[true];
 
@@ -229,5 +353,55 @@ mod tests {
         let values = [noisy, half, noisy, half];
         assert!((needed(&values, 0.1, &[false, true]) - 100.0 / 3.0).abs() < 1e-9);
         assert_eq!(pixels(&values, 4, 1, Symmetry::None, &TARGET, &[false, true]), vec![34]);
+    }
+
+    #[test]
+    fn an_image_target_spends_by_deviation_times_root_solid_angle_and_meets_the_target_exactly() {
+        // Three pixels in a row, the third untraced: the first two have
+        // the same pilot (mean 2, σ² = 16/3), so the neighbourhood means
+        // leave σ as it is; solid angles 1 and 4. The need is
+        // n_k = λ·σ·√Ω_k with λ = Σ √Ω·σ / (t²·S), S = Σ Ω·μ².
+        let a = tally(&[0.0, 4.0, 0.0, 4.0]);
+        let b = tally(&[0.0, 4.0, 0.0, 4.0]);
+        let weights = [1.0, 4.0, 0.0];
+        let target = NoiseTarget {
+            relative_se: 0.1,
+            pilot: 2,
+            max_samples: 1_000_000,
+            per: crate::job::TargetScope::Image,
+            ..TARGET
+        };
+        let tallies = [a, b, Tally::default()];
+        let mut pilot = ImagePilot {
+            tallies: &tallies,
+            values: 1,
+            width: 3,
+            symmetry: Symmetry::None,
+            weights: &weights,
+            ground: None,
+        };
+        let (n, view) = image_pixels(&pilot, &target, ALL);
+        let sigma = (16.0f64 / 3.0).sqrt();
+        let signal = 1.0 * 4.0 + 4.0 * 4.0; // Σ Ω·μ²
+        let lambda = (1.0 * sigma + 2.0 * sigma) / (0.01 * signal);
+        assert_eq!(
+            n,
+            vec![(lambda * sigma).ceil() as u64, (lambda * sigma * 2.0).ceil() as u64, 0]
+        );
+        // The target met: Σ Ω·σ²/n = t²·S (to the rounding up of n).
+        let noise: f64 = weights[..2]
+            .iter()
+            .zip(&n)
+            .map(|(w, &k)| w * sigma * sigma / k as f64)
+            .sum();
+        assert!(noise <= 0.01 * signal && noise > 0.99 * 0.01 * signal, "{noise}");
+        assert_eq!(view, target.pilot);
+        // A ground view of solid angle 4 with the same pilot joins the sums
+        // as one more term and takes its share.
+        pilot.ground = Some((std::slice::from_ref(&a), 4.0));
+        let (n2, view) = image_pixels(&pilot, &target, ALL);
+        let lambda2 = (3.0 * sigma + 2.0 * sigma) / (0.01 * (signal + 16.0));
+        assert_eq!(n2[0], (lambda2 * sigma).ceil() as u64);
+        assert_eq!(view, (lambda2 * sigma * 2.0).ceil() as u64);
     }
 }

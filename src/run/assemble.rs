@@ -202,16 +202,27 @@ pub fn noise(job: &Job, layout: &Layout, state: &UnitState) -> Vec<(f64, f64, bo
             }
         }
     }
+    let camera = match &job.render.sensor {
+        Sensor::Image(camera) => Some(camera),
+        Sensor::Directions(_) => None,
+    };
     per_value
         .iter()
         .enumerate()
         .map(|(k, t)| {
             let albedo = job.render.albedos[k % na];
+            let noise = match camera {
+                Some(c) => {
+                    let width = c.size().0.max(1);
+                    Noise::of_image(t, target, |p| c.pixel_solid_angle(p % width, p / width))
+                }
+                None => Noise::of(t, target),
+            };
             (
                 job.wavelengths_nm[k / na],
                 albedo,
                 layout.target.is_none_or(|t| t.albedos.counts(albedo)),
-                Noise::of(t, target),
+                noise,
             )
         })
         .collect()

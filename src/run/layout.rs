@@ -12,7 +12,7 @@ use crate::film::ground_view::{self, GROUND_VIEW_SAMPLES};
 use crate::film::image::ActivePixels;
 use crate::film::pixel_counts::PixelCounts;
 use crate::film::tally::{self, BLOCK, Tally};
-use crate::job::{Job, NoiseTarget, Sensor, Task};
+use crate::job::{Job, NoiseTarget, Sensor, TargetScope, Task};
 use crate::run::allocation::{self, Allocation};
 use crate::run::shard::Shard;
 use crate::sampling::stream::{self, Channels, Render, StreamKey};
@@ -114,6 +114,13 @@ pub struct Layout {
     width: usize,
     /// Per albedo, whether the noise target counts it.
     counted_albedos: Vec<bool>,
+    /// Per pixel of an image held to a target as a whole: its solid angle
+    /// and that of the pixels that copy it (0 where untraced); empty
+    /// otherwise.
+    pixel_weights: Vec<f64>,
+    /// The solid angle of the rows that show the ground view (an observer
+    /// on the ground), for such an image.
+    ground_solid_angle: f64,
 }
 
 impl Layout {
@@ -259,6 +266,23 @@ impl Layout {
             Sensor::Image(camera) => camera.size().0,
             Sensor::Directions(_) => 0,
         };
+        let (pixel_weights, ground_solid_angle) = match (&spec.sensor, spec.target) {
+            (Sensor::Image(camera), Some(t)) if t.per == TargetScope::Image => {
+                let (w, h) = camera.size();
+                let mut weights = vec![0.0; w * h];
+                for j in 0..traced_rows.min(h) {
+                    for i in camera.active_columns(j) {
+                        weights[j * w + symmetry.traced_column(w, i)] += camera.pixel_solid_angle(i, j);
+                    }
+                }
+                let ground: f64 = (traced_rows..h)
+                    .flat_map(|j| camera.active_columns(j).map(move |i| (i, j)))
+                    .map(|(i, j)| camera.pixel_solid_angle(i, j))
+                    .sum();
+                (weights, ground)
+            }
+            _ => (Vec::new(), 0.0),
+        };
         Layout {
             allocation: vec![None; estimates.len()],
             estimates,
@@ -274,6 +298,8 @@ impl Layout {
             adaptive_waves: true,
             target: spec.target,
             width,
+            pixel_weights,
+            ground_solid_angle,
             counted_albedos: spec
                 .albedos
                 .iter()
@@ -301,6 +327,10 @@ impl Layout {
             if tallies.len() != self.tallies(pilot) {
                 continue;
             }
+            if target.per == TargetScope::Image {
+                self.allocate_image(e, pilot, state, &target);
+                continue;
+            }
             self.allocation[e] = Some(match self.estimates[e].kind {
                 EstimateKind::Pixels { .. } => Allocation::Pixels(allocation::pixels(
                     tallies,
@@ -317,6 +347,42 @@ impl Layout {
                 )),
                 _ => Allocation::Single(allocation::single(tallies, &target, &self.counted_albedos)),
             });
+        }
+    }
+
+    /// An image held to a target as a whole: the pixels of targeted
+    /// estimate `e` (pilot `pilot`) and the ground view of the same
+    /// channels, allocated together once both pilots are done (a ground
+    /// view waits for its pixels).
+    fn allocate_image(&mut self, e: usize, pilot: usize, state: &UnitState, target: &NoiseTarget) {
+        let EstimateKind::Pixels { channels } = self.estimates[e].kind else {
+            return;
+        };
+        let ground = (0..self.estimates.len()).find(|&g| {
+            self.estimates[g].kind == EstimateKind::GroundView { channels }
+                && matches!(self.estimates[g].stage, Stage::Targeted { .. })
+        });
+        let ground_pilot = ground.and_then(|g| match self.estimates[g].stage {
+            Stage::Targeted { pilot } => Some(pilot),
+            _ => None,
+        });
+        if let Some(gp) = ground_pilot
+            && (state.done[gp] != self.len(gp, state.shard) || state.tallies[gp].len() != self.tallies(gp))
+        {
+            return;
+        }
+        let image = allocation::ImagePilot {
+            tallies: &state.tallies[pilot],
+            values: self.estimates[e].values,
+            width: self.width,
+            symmetry: self.symmetry,
+            weights: &self.pixel_weights,
+            ground: ground_pilot.map(|gp| (state.tallies[gp].as_slice(), self.ground_solid_angle)),
+        };
+        let (pixels, view) = allocation::image_pixels(&image, target, &self.counted_albedos);
+        self.allocation[e] = Some(Allocation::Pixels(pixels));
+        if let Some(g) = ground {
+            self.allocation[g] = Some(Allocation::Single(view));
         }
     }
 

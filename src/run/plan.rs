@@ -265,8 +265,9 @@ pub fn write_plan(job: &Job, out: &mut dyn Write) -> io::Result<()> {
     let samples = match job.render.target {
         None => format!("{} samples", job.render.samples),
         Some(t) => format!(
-            "samples to a relative standard error of I of {} in {} (pilot {}, at most {})",
+            "samples to a relative standard error of I of {} {} in {} (pilot {}, at most {})",
             t.relative_se,
+            t.per.describe(),
             t.albedos.describe(),
             t.pilot,
             t.max_samples

@@ -96,6 +96,7 @@ fn metadata(job: &Job, task: &Task, layout: &Layout, non_finite: u64, info: RunI
             put("pilot_samples", t.pilot.to_string());
             put("max_samples", t.max_samples.to_string());
             put("noise_target_albedos", quote(t.albedos.key_value()));
+            put("noise_target_per", quote(t.per.key_value()));
         }
     }
     put("paths", layout.paths(crate::run::shard::Shard::WHOLE).to_string());

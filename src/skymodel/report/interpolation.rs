@@ -69,8 +69,8 @@ pub fn interpolation(model: &Model, grid: &RenderGrid, settings: &FitSettings) -
             altitude_m: config.altitude_km * 1000.0,
             elevation_deg: config.elevation_deg,
             wavelength_nm: layer.wavelength_nm,
-            rmse_interpolated: compare(layer, &interpolated, None).rmse(),
-            rmse_fit: compare(layer, &fitted, None).rmse(),
+            rmse_interpolated: compare(layer, &interpolated, None, &[]).rmse(),
+            rmse_fit: compare(layer, &fitted, None, &[]).rmse(),
         }
     })
 }

@@ -18,6 +18,7 @@
 pub mod boxplot;
 pub mod half_loss;
 pub mod interpolation;
+pub mod regions;
 pub mod score;
 pub mod transmittance_check;
 pub mod twin;
@@ -128,15 +129,42 @@ pub fn twin_summary(twin: &[TwinScore]) -> Option<(Spread, Option<Spread>)> {
     ))
 }
 
+/// A Markdown table of the mean share per region of `rows` (elevation,
+/// altitude (m), shares), grouped by sun elevation and observer altitude.
+fn region_table(what: &str, rows: &[(f64, f64, [f64; 4])]) -> String {
+    let mut keys: Vec<(f64, f64)> = rows.iter().map(|r| (r.0, r.1)).collect();
+    keys.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    keys.dedup();
+    let names: Vec<&str> = regions::Region::ALL.iter().map(|r| r.name()).collect();
+    let mut md = format!(
+        "\n{what}, mean share per region (aureole: within {}° of the sun; horizon: θ′ within {}° of 90°; below: \
+         beyond it; sky: the rest):\n\n| elevation | altitude (m) | {} |\n|---|---|{}\n",
+        regions::AUREOLE_DEG,
+        regions::HORIZON_DEG,
+        names.join(" | "),
+        "---|".repeat(names.len())
+    );
+    for (e, h) in keys {
+        let group: Vec<&[f64; 4]> = rows.iter().filter(|r| r.0 == e && r.1 == h).map(|r| &r.2).collect();
+        let n = group.len().max(1) as f64;
+        let means: Vec<String> = (0..4)
+            .map(|k| format!("{:.2}", group.iter().map(|g| g[k]).sum::<f64>() / n))
+            .collect();
+        md.push_str(&format!("| {e} | {h} | {} |\n", means.join(" | ")));
+    }
+    md
+}
+
 /// The per-image scores as CSV.
 pub fn scores_csv(scores: &[ImageScore]) -> String {
     let mut s = String::from(
         "visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,snr_db,noise_floor_db,debiased_snr_db,\
-         debiased_snr_lower_db,debiased_snr_sd_db,nmae,polarisation_error\n",
+         debiased_snr_lower_db,debiased_snr_sd_db,nmae,polarisation_error,excess_aureole,excess_horizon,\
+         excess_below,excess_sky\n",
     );
     for x in scores {
         s.push_str(&format!(
-            "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.6},{}\n",
+            "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.6},{},{:.4},{:.4},{:.4},{:.4}\n",
             x.visibility_km,
             x.albedo,
             x.altitude_m,
@@ -148,7 +176,11 @@ pub fn scores_csv(scores: &[ImageScore]) -> String {
             x.debiased_snr_lower_db,
             x.debiased_snr_sd_db,
             x.nmae,
-            x.polarisation_error.map_or(String::new(), |v| format!("{v:.6}"))
+            x.polarisation_error.map_or(String::new(), |v| format!("{v:.6}")),
+            x.excess_by_region[0],
+            x.excess_by_region[1],
+            x.excess_by_region[2],
+            x.excess_by_region[3]
         ));
     }
     s
@@ -158,11 +190,11 @@ pub fn scores_csv(scores: &[ImageScore]) -> String {
 pub fn twin_csv(twin: &[TwinScore]) -> String {
     let mut s = String::from(
         "visibility_km,albedo,altitude_m,elevation_deg,wavelength_nm,seed_to_seed_snr_db,inherited_snr_db,\
-         polarisation_difference\n",
+         polarisation_difference,difference_aureole,difference_horizon,difference_below,difference_sky\n",
     );
     for t in twin {
         s.push_str(&format!(
-            "{},{},{},{},{},{:.4},{:.4},{}\n",
+            "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.4},{:.4}\n",
             t.visibility_km,
             t.albedo,
             t.altitude_m,
@@ -170,7 +202,11 @@ pub fn twin_csv(twin: &[TwinScore]) -> String {
             t.wavelength_nm,
             t.seed_to_seed_snr_db,
             t.inherited_snr_db(),
-            t.polarisation_difference.map_or(String::new(), |v| format!("{v:.6}"))
+            t.polarisation_difference.map_or(String::new(), |v| format!("{v:.6}")),
+            t.difference_by_region[0],
+            t.difference_by_region[1],
+            t.difference_by_region[2],
+            t.difference_by_region[3]
         ));
     }
     s
@@ -287,6 +323,15 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
                 "| polarisation: radiance-weighted mean abs. error of the degree of polarisation, mean / max | {m:.4} / {x:.4} |\n"
             ));
         }
+        let rows: Vec<(f64, f64, [f64; 4])> = extras
+            .reference
+            .iter()
+            .map(|t| (t.elevation_deg, t.altitude_m, t.excess_by_region))
+            .collect();
+        md.push_str(&region_table(
+            "Where the error against the references lies (its excess over their noise)",
+            &rows,
+        ));
         md.push_str(
             "\nPer image (`reference.csv`):\n\n| visibility | albedo | altitude (m) | elevation | channel | SNR (dB) | \
              reference noise floor (dB) | debiased SNR (dB) | NMAE | pol. error |\n|---|---|---|---|---|---|---|---|---|---|\n",
@@ -326,6 +371,12 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
                 "| degree of polarisation, radiance-weighted mean abs. difference, mean / max | {pm:.4} / {px:.4} |\n"
             ));
         }
+        let rows: Vec<(f64, f64, [f64; 4])> = extras
+            .twin
+            .iter()
+            .map(|t| (t.elevation_deg, t.altitude_m, t.difference_by_region))
+            .collect();
+        md.push_str(&region_table("Where the seed-to-seed difference lies", &rows));
         md.push_str("\nPer image: `twin.csv`.\n");
     }
     md.push_str("\n## Normalised mean absolute error\n\n");

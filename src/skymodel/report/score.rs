@@ -25,6 +25,7 @@ use crate::skymodel::angles::{SunPosition, ViewAngles};
 use crate::skymodel::fit::SphereImage;
 use crate::skymodel::fit::render_layers::{self, Layer};
 use crate::skymodel::fit::renders::{ConfigRender, RenderGrid};
+use crate::skymodel::report::regions::{Region, RegionSums};
 use crate::skymodel::runtime::{Model, Parameters};
 
 /// The comparison of one image.
@@ -50,6 +51,9 @@ pub struct ImageScore {
     /// Root-mean-square difference (solid-angle weighted), for the
     /// interpolation ratio.
     pub rmse: f64,
+    /// Each region's share of the error's excess over the render's noise,
+    /// Σ w·((L − F)² − se²), in the order of [`Region::ALL`].
+    pub excess_by_region: [f64; 4],
 }
 
 /// The runtime's parameters of the view `v` of a configuration, its
@@ -99,6 +103,9 @@ pub struct Sums {
     /// Σ w·L·|P − P_F| and Σ w·L over the pixels with L > 0.
     pub pol_error: f64,
     pub pol_weights: f64,
+    /// Σ w·(L − F)² and Σ w·se² per region of the sphere.
+    pub error_by_region: RegionSums,
+    pub noise_by_region: RegionSums,
 }
 
 /// 10·log10(a/b), infinite for b ≤ 0.
@@ -178,8 +185,20 @@ impl Sums {
     }
 }
 
-/// The sums of one comparison of a rendered image with a fitted one.
-pub fn compare(layer: &Layer, fitted: &SphereImage, fitted_pol: Option<&SphereImage>) -> Sums {
+/// The region of every pixel centre of `like` for `config`.
+pub fn regions_of(config: &ConfigRender, like: &SphereImage) -> Vec<Region> {
+    let mut out = Vec::with_capacity(like.width * like.height);
+    for j in 0..like.height {
+        for i in 0..like.width {
+            out.push(Region::of(&parameters_at(like.direction(i, j), config, 0.0)));
+        }
+    }
+    out
+}
+
+/// The sums of one comparison of a rendered image with a fitted one;
+/// `regions` (one per pixel, or empty) splits the error and noise.
+pub fn compare(layer: &Layer, fitted: &SphereImage, fitted_pol: Option<&SphereImage>, regions: &[Region]) -> Sums {
     let img = &layer.radiance;
     let mut s = Sums::default();
     for j in 0..img.height {
@@ -195,6 +214,10 @@ pub fn compare(layer: &Layer, fitted: &SphereImage, fitted_pol: Option<&SphereIm
             // (L − F)² with L = T + n, n ~ (0, se²): variance 4·b²·se² + 2·se⁴,
             // doubled because a mirrored render's two halves are one estimate.
             s.error_variance += 2.0 * w * w * (4.0 * (d2 - var).max(0.0) * var + 2.0 * var * var);
+            if let Some(&r) = regions.get(k) {
+                s.error_by_region.add(r, w * d2);
+                s.noise_by_region.add(r, w * var);
+            }
             s.abs_error += w * (l - f).abs();
             s.abs_signal += w * l.abs();
             s.weights += w;
@@ -254,7 +277,8 @@ pub fn each_image<T: Send>(grid: &RenderGrid, f: impl Fn(&ConfigRender, &Layer) 
 pub fn score(model: &Model, grid: &RenderGrid) -> Result<Vec<ImageScore>> {
     each_image(grid, |config, layer| {
         let (f, p) = evaluated(model, config, layer.albedo, layer.wavelength_nm, &layer.radiance);
-        let sums = compare(layer, &f, p.as_ref());
+        let regions = regions_of(config, &layer.radiance);
+        let sums = compare(layer, &f, p.as_ref(), &regions);
         ImageScore {
             visibility_km: config.visibility_km,
             albedo: layer.albedo,
@@ -269,6 +293,10 @@ pub fn score(model: &Model, grid: &RenderGrid) -> Result<Vec<ImageScore>> {
             nmae: sums.nmae(),
             polarisation_error: sums.polarisation_error(),
             rmse: sums.rmse(),
+            excess_by_region: {
+                let (e, n) = (sums.error_by_region.0, sums.noise_by_region.0);
+                RegionSums([0, 1, 2, 3].map(|k| e[k] - n[k])).shares()
+            },
         }
     })
 }

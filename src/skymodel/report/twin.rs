@@ -14,7 +14,8 @@
 //! Also the radiance-weighted mean absolute difference of the degree of
 //! polarisation, Σ w·F̄·|P₁ − P₂| / Σ w·F̄.
 
-use super::score::{db, each_image, evaluated};
+use super::regions::RegionSums;
+use super::score::{db, each_image, evaluated, regions_of};
 use crate::error::{Error, Result};
 use crate::skymodel::fit::renders::RenderGrid;
 use crate::skymodel::runtime::Model;
@@ -34,6 +35,9 @@ pub struct TwinScore {
     pub seed_to_seed_snr_db: f64,
     /// Σ w·F̄·|P₁ − P₂| / Σ w·F̄; `None` without polarisation in both.
     pub polarisation_difference: Option<f64>,
+    /// Each region's share of Σ w·(F₁ − F₂)², in the order of
+    /// [`super::regions::Region::ALL`].
+    pub difference_by_region: [f64; 4],
 }
 
 impl TwinScore {
@@ -76,6 +80,8 @@ pub fn seed_to_seed(model: &Model, twin: &Model, grid: &RenderGrid) -> Result<Ve
         let like = &layer.radiance;
         let (f1, p1) = evaluated(model, config, layer.albedo, layer.wavelength_nm, like);
         let (f2, p2) = evaluated(twin, config, layer.albedo, layer.wavelength_nm, like);
+        let regions = regions_of(config, like);
+        let mut by_region = RegionSums::default();
         let (mut signal, mut difference, mut pol, mut pol_w) = (0.0, 0.0, 0.0, 0.0);
         for j in 0..like.height {
             let w = like.solid_angle(j);
@@ -85,6 +91,7 @@ pub fn seed_to_seed(model: &Model, twin: &Model, grid: &RenderGrid) -> Result<Ve
                 let d = f1.values[k] - f2.values[k];
                 signal += w * mean * mean;
                 difference += w * d * d;
+                by_region.add(regions[k], w * d * d);
                 if let (Some(p1), Some(p2)) = (&p1, &p2) {
                     pol += w * mean.max(0.0) * (p1.values[k] - p2.values[k]).abs();
                     pol_w += w * mean.max(0.0);
@@ -99,6 +106,7 @@ pub fn seed_to_seed(model: &Model, twin: &Model, grid: &RenderGrid) -> Result<Ve
             wavelength_nm: layer.wavelength_nm,
             seed_to_seed_snr_db: db(signal, difference),
             polarisation_difference: (pol_w > 0.0).then(|| pol / pol_w),
+            difference_by_region: by_region.shares(),
         }
     })
 }
