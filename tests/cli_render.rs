@@ -116,11 +116,18 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
     let out = atmosim().args(["bench", "--grid", "--quick"]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
-    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 1024x512")).collect();
+    // Priced at the grid job's own resolution.
+    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 512x256")).collect();
     assert_eq!(tasks.len(), 3, "{text}");
     for t in &tasks {
-        assert!(t.contains("340: ") && t.contains("740: "), "{t}");
+        assert!(t.contains("image noise by band 340: ") && t.contains("740: "), "{t}");
     }
+    assert!(
+        text.starts_with(
+            "grid benchmark: 3 tasks, 64x32 full-sphere images to the grid job's noise target, 0.05 per image"
+        ),
+        "{text}"
+    );
     let last = text.lines().last().unwrap();
     let figures: Vec<f64> = last
         .strip_prefix("grid_core_hours_per_task: ")
@@ -166,7 +173,7 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
-    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 1024x512")).collect();
+    let tasks: Vec<&str> = text.lines().filter(|l| l.contains("core-hours at 512x256")).collect();
     assert_eq!(tasks.len(), 2, "{text}");
     assert!(
         tasks[0].starts_with("vis020.0_elev-01.0_alt00000m: ")
@@ -201,13 +208,25 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
             "{text}"
         );
         // The task's noise figures, without its timings.
-        let line = text.lines().find(|l| l.contains("core-hours at 1024x512")).unwrap();
-        let start = line.find("median/p99").unwrap();
-        line[start..line.find("; to target").unwrap()].to_string()
+        let line = text.lines().find(|l| l.contains("core-hours at 512x256")).unwrap();
+        let start = line.find("image noise by band").unwrap();
+        line[start..line.rfind(": ").unwrap()].to_string()
     };
     let default = noise_of(None);
     assert_eq!(noise_of(Some("1")), default);
     assert_ne!(noise_of(Some("2")), default);
+    // The former per-pixel yardstick, priced at 1024×512.
+    let out = atmosim()
+        .args(["bench", "--grid", "--quick", "--per-pixel", "--task", "elev+90"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("the per-pixel yardstick") && text.contains("median/p99 by band 340: "),
+        "{text}"
+    );
+    assert!(text.lines().any(|l| l.contains("core-hours at 1024x512")), "{text}");
     // Only with --grid, at least 2 samples, a seed that is a u64.
     for args in [
         &["bench", "--samples", "4"][..],
@@ -215,6 +234,8 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
         &["bench", "--task", "elev+90"][..],
         &["bench", "--seed", "2"][..],
         &["bench", "--grid", "--seed", "-1"][..],
+        &["bench", "--per-pixel"][..],
+        &["bench", "--grid", "--per-pixel", "--samples", "4"][..],
     ] {
         let out = atmosim().args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -1,0 +1,253 @@
+#!/usr/bin/env python3
+"""The sky-model grid sized by the dataset it makes (docs: grid-sizing).
+
+Renders the validation sub-grid (sun -4.2, -1, 2, 10, 45 deg; observer 0
+and 15 km; visibility 20 and 131.8 km; albedos 0.3 and 1; 11 bands of 40 nm
+from 320 nm; polarised; OPAC continental_average with its Mie phase
+matrices, the default) once as a reference and, per study row (a render
+resolution and a noise level), twice with independent seeds; fits every
+render set with `atmosim fit`; and compares each row's first dataset with
+the reference renders and with its twin by `atmosim fit-report --reference
+--twin`. Prints a table per row:
+
+- the dataset against the converged sky (the reference's noise taken out):
+  SNR mean / minimum over the images, the polarisation error;
+- the seed-to-seed SNR and the noise one dataset inherits (+3.01 dB);
+- the fit's own error (the error against the converged sky less the
+  inherited noise) and what the render noise costs in dB;
+- core-hours per task (the process CPU time of each task's render, mean
+  and max over the 20 tasks), at the row's resolution.
+
+Every step is skipped when its output exists (a task complete, a dataset,
+a report), so the study can be stopped and run again. Usage:
+
+    cargo build --release
+    scripts/grid_study.py [--out out/grid_study] [--rows NAME ...] [--threads N]
+
+Needs Python 3.9+ alone (no packages). Each row's commands are printed as
+they run.
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+BANDS = "[340.0, 380.0, 420.0, 460.0, 500.0, 540.0, 580.0, 620.0, 660.0, 700.0, 740.0]"
+TASKS = 20
+
+JOB = """# The validation sub-grid of the sky model's grid (scripts/grid_study.py).
+[planet]
+radius_km = 6378.0
+top_km = 100.0
+[atmosphere]
+profile = "us_standard"
+ozone = "bogumil"
+aerosol = "continental_average"
+visibility_km = [20.0, 131.8]
+[spectrum]
+wavelengths_nm = {bands}
+band_width_nm = 40.0
+[sun]
+elevation_deg = [-4.2, -1.0, 2.0, 10.0, 45.0]
+[observer]
+altitude_km = [0.0, 15.0]
+[ground]
+albedo = [0.3, 1.0]
+[sensor]
+type = "sphere"
+resolution = [{width}, {height}]
+stokes_frame = "sun_view"
+[render]
+{render}
+polarized = true
+seed = {seed}
+[output]
+directory = "{out}"
+units = "absolute"
+preview = false
+"""
+
+
+def image_target(t, pilot=8):
+    return (f'noise_target = {t}\nnoise_target_per = "image"\nnoise_target_albedos = "above_zero"\n'
+            f"pilot_samples = {pilot}\nmax_samples = 1000000")
+
+
+# name: (width, render keys). The reference comes first; the rows are
+# rendered with seeds 1 and 2.
+REFERENCE = ("ref512_s256", 512, "samples = 256", 1001)
+ROWS = {
+    "r512_s16": (512, "samples = 16"),
+    "r256_s64": (256, "samples = 64"),
+    "r512_s64": (512, "samples = 64"),
+    "r256_img10": (256, image_target(0.1)),
+    "r512_img10": (512, image_target(0.1)),
+    "r256_img05": (256, image_target(0.05)),
+}
+
+
+def run(cmd, cwd):
+    print("+ (cd {}; {})".format(cwd, " ".join(cmd)), flush=True)
+    subprocess.run(cmd, cwd=cwd, check=True)
+
+
+def cpu_of_children():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def render(atmosim, out, name, width, keys, seed, threads):
+    """Renders a job task by task; returns {task: cpu seconds}."""
+    job = out / f"{name}.toml"
+    # A job file that exists is kept (its tasks' results name its hash).
+    if not job.exists():
+        job.write_text(JOB.format(bands=BANDS, width=width, height=width // 2, render=keys, seed=seed, out=name))
+    cache = out / f"{name}.cpu.json"
+    cpu = json.loads(cache.read_text()) if cache.exists() else {}
+    for task in range(TASKS):
+        if str(task) in cpu:
+            continue
+        done = [d for d in (out / name).glob("*/task.toml")] if (out / name).is_dir() else []
+        before = cpu_of_children()
+        cmd = [atmosim, "render", job.name, "--task", str(task), "-q"]
+        if threads:
+            cmd += ["--threads", str(threads)]
+        run(cmd, out)
+        now_done = list((out / name).glob("*/task.toml"))
+        # A task complete before this run (rendered elsewhere) has no time.
+        cpu[str(task)] = cpu_of_children() - before if len(now_done) > len(done) else None
+        cache.write_text(json.dumps(cpu))
+    return cpu
+
+
+def fit(atmosim, out, name):
+    dataset = out / f"{name}.dat"
+    (out / f"fit_{name}.toml").write_text(f'renders = "{name}"\nout = "{name}.dat"\n')
+    if not dataset.exists():
+        run([atmosim, "fit", f"fit_{name}.toml", "-q"], out)
+    return dataset
+
+
+def rows_of(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def number(text):
+    return float(text) if text not in ("", None) else float("nan")
+
+
+def paths_of(out, name):
+    """Paths per task (by task directory name)."""
+    paths = {}
+    for d in sorted((out / name).iterdir()):
+        meta = d / "task.toml"
+        if meta.exists():
+            for line in meta.read_text().splitlines():
+                if line.startswith("paths = "):
+                    paths[d.name] = int(line.split("=")[1])
+    return paths
+
+
+def summarise(out, row, reference):
+    """The row's figures from its report."""
+    report = out / f"{row}.report"
+    ref = rows_of(report / "reference.csv")
+    twin = rows_of(report / "twin.csv")
+    assert len(ref) == len(twin), "reference and twin cover the same images"
+    # The debiased SNR, or its lower bound where the reference does not
+    # resolve the error.
+    debiased = [number(r["debiased_snr_db"]) if r["debiased_snr_db"] else number(r["debiased_snr_lower_db"])
+                for r in ref]
+    inherited = [number(t["inherited_snr_db"]) for t in twin]
+    pol = [number(r["polarisation_error"]) for r in ref if r["polarisation_error"]]
+    # Per image: error power over signal e = 10^(-S/10); the inherited part
+    # n; the fit's own b = e - n (floored at a tenth of e: the two
+    # estimates are noisy).
+    fit_own, cost = [], []
+    for s, i in zip(debiased, inherited):
+        e, n = 10 ** (-s / 10), 10 ** (-i / 10)
+        b = max(e - n, 0.1 * e)
+        fit_own.append(-10 * math.log10(b))
+        cost.append(10 * math.log10(e / b))
+    mean = lambda v: sum(v) / len(v)
+    return {
+        "images": len(ref),
+        "snr_mean": mean(debiased),
+        "snr_min": min(debiased),
+        "raw_snr_mean": mean([number(r["snr_db"]) for r in ref]),
+        "reference_floor_mean": mean([number(r["noise_floor_db"]) for r in ref]),
+        "unresolved": sum(1 for r in ref if not r["debiased_snr_db"]),
+        "pol_error_mean": mean(pol) if pol else float("nan"),
+        "seed_to_seed_mean": mean([number(t["seed_to_seed_snr_db"]) for t in twin]),
+        "seed_to_seed_min": min(number(t["seed_to_seed_snr_db"]) for t in twin),
+        "inherited_mean": mean(inherited),
+        "inherited_min": min(inherited),
+        "fit_own_mean": mean(fit_own),
+        "render_noise_cost_db_mean": mean(cost),
+        "render_noise_cost_db_max": max(cost),
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out", default="out/grid_study")
+    parser.add_argument("--rows", nargs="*", default=list(ROWS))
+    parser.add_argument("--threads", type=int, default=0)
+    parser.add_argument("--reference", help="an existing reference render directory under --out (not rendered)")
+    parser.add_argument("--no-report", action="store_true", help="render and fit the rows only")
+    parser.add_argument("--atmosim", default=str(Path(__file__).resolve().parent.parent / "target/release/atmosim"))
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    atmosim = os.path.abspath(args.atmosim)
+
+    ref_name, ref_width, ref_keys, ref_seed = REFERENCE
+    if args.reference:
+        ref_name = args.reference
+    elif not args.no_report:
+        render(atmosim, out, ref_name, ref_width, ref_keys, ref_seed, args.threads)
+    results = {}
+    for row in args.rows:
+        width, keys = ROWS[row]
+        cpu = {}
+        for seed, suffix in ((1, "a"), (2, "b")):
+            cpu[suffix] = render(atmosim, out, f"{row}_{suffix}", width, keys, seed, args.threads)
+            fit(atmosim, out, f"{row}_{suffix}")
+        if args.no_report:
+            continue
+        report = out / f"{row}.report"
+        if not (report / "twin.csv").exists():
+            run([atmosim, "fit-report", f"fit_{row}_a.toml", "--reference", ref_name, "--twin", f"{row}_b.dat",
+                 "--out", report.name], out)
+        figures = summarise(out, row, ref_name)
+        hours = [c / 3600 for c in list(cpu["a"].values()) + list(cpu["b"].values()) if c is not None]
+        figures["core_hours_mean"] = sum(hours) / len(hours) if hours else float("nan")
+        figures["core_hours_max"] = max(hours) if hours else float("nan")
+        figures["timed_tasks"] = len(hours)
+        figures["width"] = width
+        figures["render"] = keys.replace("\n", "; ")
+        results[row] = figures
+        (out / "study.json").write_text(json.dumps(results, indent=1))
+        print(json.dumps({row: figures}, indent=1), flush=True)
+
+    print("\n| row | resolution | render | vs converged sky: SNR mean / min (dB) | pol. error | seed-to-seed mean / min (dB) "
+          "| inherited mean / min (dB) | fit's own error, mean (dB) | render noise costs, mean / max (dB) "
+          "| core-hours per task, mean / max |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for row, f in results.items():
+        print(f"| {row} | {f['width']}x{f['width'] // 2} | {f['render']} | {f['snr_mean']:.2f} / {f['snr_min']:.2f} "
+              f"| {f['pol_error_mean']:.4f} | {f['seed_to_seed_mean']:.2f} / {f['seed_to_seed_min']:.2f} "
+              f"| {f['inherited_mean']:.2f} / {f['inherited_min']:.2f} | {f['fit_own_mean']:.2f} "
+              f"| {f['render_noise_cost_db_mean']:.2f} / {f['render_noise_cost_db_max']:.2f} "
+              f"| {f['core_hours_mean']:.3f} / {f['core_hours_max']:.3f} |")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
