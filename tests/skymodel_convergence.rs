@@ -173,3 +173,73 @@ fn debiased_and_seed_to_seed_snr_recover_the_truth() {
     );
     println!("{noisy}\n{exact}\ndifferences {d:?}");
 }
+
+#[test]
+fn renders_to_an_image_target_are_fitted_and_compared_seed_to_seed() {
+    // The grid as shipped renders to a target per image: the fit reads
+    // such renders (their samples vary per pixel), and two of them from
+    // other seeds give a finite seed-to-seed SNR that falls when the
+    // target loosens (more noise carried into the dataset).
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    let job = |seed: u64, target: f64| {
+        format!(
+            "[spectrum]\nwavelengths_nm = [450.0, 550.0]\nband_width_nm = 100.0\n[sun]\nelevation_deg = [10.0, 30.0]\n\
+             [ground]\nalbedo = 0.3\n[sensor]\ntype = \"sphere\"\nresolution = [32, 16]\nstokes_frame = \"sun_view\"\n\
+             [render]\nnoise_target = {target}\nnoise_target_per = \"image\"\npilot_samples = 8\nseed = {seed}\n\
+             [output]\ndirectory = \"r{seed}_{target}\"\nunits = \"absolute\"\npreview = false\n"
+        )
+    };
+    let mut snr = Vec::new();
+    for target in [0.02, 0.08] {
+        for seed in [1, 2] {
+            std::fs::write(root.join(format!("j{seed}.toml")), job(seed, target)).unwrap();
+            run_ok(root, &["render", &format!("j{seed}.toml"), "-q"]);
+            std::fs::write(
+                root.join(format!("fit{seed}.toml")),
+                format!("renders = \"r{seed}_{target}\"\nout = \"sky{seed}.dat\"\nresolution = 91\n"),
+            )
+            .unwrap();
+            run_ok(root, &["fit", &format!("fit{seed}.toml"), "-q"]);
+        }
+        let provenance = std::fs::read_to_string(root.join("sky1.dat.toml")).unwrap();
+        assert!(provenance.contains("samples_per_pixel = { min = "), "{provenance}");
+        run_ok(root, &["fit-report", "fit1.toml", "--twin", "sky2.dat", "--out", "rep"]);
+        let twin = rows(&root.join("rep").join("twin.csv"));
+        assert_eq!(twin.len(), 4);
+        let mean = twin.iter().map(|t| number(t, "seed_to_seed_snr_db")).sum::<f64>() / 4.0;
+        assert!(mean.is_finite(), "{twin:?}");
+        snr.push(mean);
+    }
+    // A twin of another grid (one elevation of the two) is refused by name.
+    let one = std::fs::read_dir(root.join("r1_0.08"))
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.join("image.exr").is_file())
+        .unwrap();
+    std::fs::write(
+        root.join("fit_one.toml"),
+        format!(
+            "renders = {:?}\nout = \"one.dat\"\nresolution = 91\n",
+            one.display().to_string()
+        ),
+    )
+    .unwrap();
+    run_ok(root, &["fit", "fit_one.toml", "-q"]);
+    let out = common::atmosim()
+        .current_dir(root)
+        .args(["fit-report", "fit1.toml", "--twin", "one.dat", "--out", "rep2"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("one.dat") && err.contains("not a fit of the same grid"),
+        "{err}"
+    );
+    // Four times the noise: about 12 dB less; at least 6.
+    assert!(
+        snr[0] > snr[1] + 6.0,
+        "seed-to-seed SNR {snr:?} at targets 0.02 and 0.08"
+    );
+}
