@@ -67,7 +67,7 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
     let reference = if args.reference.is_empty() {
         None
     } else {
-        Some(renders::scan(&args.reference)?)
+        Some(renders::scan(&args.reference).context("--reference: the reference renders")?)
     };
     let twin = args
         .twin
