@@ -79,7 +79,7 @@ fn example_files() -> Vec<(String, String)> {
 fn every_job_file_in_the_book_and_the_examples_parses() {
     let blocks = toml_blocks();
     let examples = example_files();
-    assert!(blocks.len() >= 8, "{} toml blocks", blocks.len());
+    assert!(blocks.len() >= 5, "{} toml blocks", blocks.len());
     assert!(examples.len() >= 20, "{} example files", examples.len());
     let fits = blocks
         .iter()
@@ -770,4 +770,229 @@ fn a_stale_path_is_caught() {
     assert!(missing_paths(&[("t".into(), text.clone())]).is_empty());
     let drifted = text.replace("src/io/srgb.rs", "src/io/colour.rs");
     assert_eq!(missing_paths(&[("t".into(), drifted)]).len(), 1);
+}
+
+// The fit's settings
+
+/// What of the fit-settings table in `chapter` (docs/sky-models.md)
+/// disagrees with the settings' schema: its keys, defaults and ranges.
+fn fit_reference_drift(chapter: &str) -> Vec<String> {
+    let parse = |text: &str| FitSettings::parse(text, "probe.toml").map_err(|e| e.to_string());
+    let keys: BTreeSet<String> = expected_names(&parse(&format!("{PROBE} = 1\n")).unwrap_err(), "field")
+        .expect("the fit's keys")
+        .into_iter()
+        .collect();
+    let rows: Vec<(usize, Vec<String>)> = markdown::table_rows(chapter)
+        .into_iter()
+        .filter(|(_, cells)| cells.len() == 4 && cells[0] != "key")
+        .collect();
+    let documented: BTreeSet<String> = rows
+        .iter()
+        .filter_map(|(_, cells)| markdown::cell_code(&cells[0]).first().cloned())
+        .collect();
+    let mut drift = Vec::new();
+    for k in keys.difference(&documented) {
+        drift.push(format!("fit key {k}: in the schema, not in the chapter"));
+    }
+    for k in documented.difference(&keys) {
+        drift.push(format!("fit key {k}: in the chapter, not in the schema"));
+    }
+    let base = "renders = \"r\"\nout = \"o.dat\"\n";
+    let with = |key: &str, v: &str| format!("{}{key} = {v}\n", base.replace(&format!("{key} = "), "# "));
+    for (line, cells) in &rows {
+        let Some(key) = markdown::cell_code(&cells[0]).first().cloned() else {
+            continue;
+        };
+        let at = format!("docs line {line}: fit key {key}");
+        let default = markdown::cell_code(&cells[1]);
+        if default.len() == 1 && cells[1] == format!("`{}`", default[0]) {
+            match (parse(base), parse(&with(&key, &default[0]))) {
+                (Ok(a), Ok(b)) if a == b => {}
+                (a, b) => drift.push(format!("{at}: default {}: {a:?} / {b:?}", default[0])),
+            }
+        }
+        for span in markdown::cell_code(&cells[2]) {
+            if (span == "true" || span == "false")
+                && let Err(e) = parse(&with(&key, &span))
+            {
+                drift.push(format!("{at}: {span} refused: {e}"));
+            }
+            let Some(iv) = interval(&span) else { continue };
+            let whole = !cells[1].contains('.');
+            let step = |b: f64| if whole { 1.0 } else { 1e-6 * b.abs().max(1.0) };
+            let value = |x: f64| {
+                if whole {
+                    format!("{}", x.round() as i64)
+                } else {
+                    format!("{x:?}")
+                }
+            };
+            let mut probes = Vec::new();
+            for (bound, below) in [(iv.lo, true), (iv.hi, false)] {
+                let Some((b, closed)) = bound else { continue };
+                let out = if below { b - step(b) } else { b + step(b) };
+                let inside = if below { b + step(b) } else { b - step(b) };
+                probes.push((if closed { b } else { inside }, true));
+                probes.push((if closed { out } else { b }, false));
+            }
+            for (x, accepted) in probes {
+                match (parse(&with(&key, &value(x))), accepted) {
+                    (Ok(_), true) => {}
+                    (Err(e), false) if e.contains(&key) => {}
+                    (r, _) => drift.push(format!(
+                        "{at}: {} {}: {r:?}",
+                        value(x),
+                        if accepted { "inside" } else { "beyond" }
+                    )),
+                }
+            }
+        }
+    }
+    drift
+}
+
+#[test]
+fn the_fit_settings_table_is_the_fits_schema() {
+    let drift = fit_reference_drift(&markdown::read("docs/sky-models.md"));
+    assert!(drift.is_empty(), "docs/sky-models.md:\n{}", drift.join("\n"));
+}
+
+#[test]
+fn a_drifted_fit_settings_table_is_caught() {
+    let chapter = markdown::read("docs/sky-models.md");
+    assert!(fit_reference_drift(&chapter).is_empty());
+    for (what, drifted) in [
+        (
+            "a key left out",
+            chapter.replace("| `emph_breaks` |", "| emph_breaks |"),
+        ),
+        (
+            "a wrong default",
+            chapter.replace("| `rank` | `9` |", "| `rank` | `8` |"),
+        ),
+        ("a range too wide", chapter.replace("`[0, 20]`", "`[0, 30]`")),
+    ] {
+        assert_ne!(drifted, chapter, "{what}: the copy did not drift");
+        assert!(!fit_reference_drift(&drifted).is_empty(), "{what}: not caught");
+    }
+}
+
+// Links between the book's pages
+
+/// A heading's anchor as GitHub makes it: lower case, spaces to hyphens,
+/// punctuation dropped (letters, digits, `-` and `_` kept).
+fn anchor(heading: &str) -> String {
+    heading
+        .trim()
+        .chars()
+        .filter_map(|c| match c {
+            ' ' => Some('-'),
+            '-' | '_' => Some(c),
+            c if c.is_alphanumeric() => Some(c),
+            _ => None,
+        })
+        .flat_map(char::to_lowercase)
+        .collect()
+}
+
+/// The anchors of a Markdown text's headings.
+fn anchors(text: &str) -> BTreeSet<String> {
+    markdown::prose_lines(text)
+        .into_iter()
+        .filter_map(|(_, l)| {
+            let hashes = l.chars().take_while(|&c| c == '#').count();
+            (hashes > 0 && l[hashes..].starts_with(' ')).then(|| anchor(&l[hashes..]))
+        })
+        .collect()
+}
+
+/// The relative links of `files` (path, text) whose target file or
+/// heading does not exist; `read` gives the text of a linked file.
+fn broken_links(files: &[(String, String)], read: &dyn Fn(&str) -> Option<String>) -> Vec<String> {
+    let mut broken = Vec::new();
+    for (file, text) in files {
+        let dir = Path::new(file).parent().unwrap_or(Path::new(""));
+        for (line, l) in markdown::prose_lines(text) {
+            let mut rest = l.as_str();
+            while let Some(k) = rest.find("](") {
+                let after = &rest[k + 2..];
+                let Some(end) = after.find(')') else { break };
+                let target = &after[..end];
+                rest = &after[end..];
+                if target.contains("://") || target.starts_with("mailto:") || target.is_empty() {
+                    continue;
+                }
+                let (path, fragment) = target.split_once('#').unwrap_or((target, ""));
+                let resolved = if path.is_empty() {
+                    file.clone()
+                } else {
+                    normalise(&dir.join(path))
+                };
+                if OWNED_ELSEWHERE.contains(&resolved.as_str()) {
+                    continue;
+                }
+                let Some(linked) = read(&resolved) else {
+                    broken.push(format!("{file}:{line}: {target}: no file {resolved}"));
+                    continue;
+                };
+                if !fragment.is_empty() && resolved.ends_with(".md") && !anchors(&linked).contains(fragment) {
+                    broken.push(format!("{file}:{line}: {target}: no heading #{fragment} in {resolved}"));
+                }
+            }
+        }
+    }
+    broken
+}
+
+/// `a/b/../c` → `a/c`, as a repository path.
+fn normalise(path: &Path) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for c in path.components() {
+        match c {
+            std::path::Component::ParentDir => {
+                parts.pop();
+            }
+            std::path::Component::Normal(p) => parts.push(p.to_string_lossy().to_string()),
+            _ => {}
+        }
+    }
+    parts.join("/")
+}
+
+fn read_repository_file(rel: &str) -> Option<String> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    if p.is_dir() {
+        return Some(String::new());
+    }
+    std::fs::read(&p).ok().map(|b| String::from_utf8_lossy(&b).into_owned())
+}
+
+#[test]
+fn every_link_in_the_book_arrives() {
+    let files: Vec<(String, String)> = markdown::doc_files()
+        .into_iter()
+        .map(|f| {
+            let text = markdown::read(&f);
+            (f, text)
+        })
+        .collect();
+    let links: usize = files.iter().map(|(_, t)| t.matches("](").count()).sum();
+    assert!(links > 100, "{links} links");
+    let broken = broken_links(&files, &read_repository_file);
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+#[test]
+fn a_broken_link_is_caught() {
+    let page = |text: &str| vec![("docs/a.md".to_string(), text.to_string())];
+    let read = |p: &str| match p {
+        "docs/b.md" => Some("# B\n\n## The planet's shadow\n".to_string()),
+        _ => None,
+    };
+    assert!(broken_links(&page("See [b](b.md#the-planets-shadow).\n"), &read).is_empty());
+    assert_eq!(broken_links(&page("See [b](c.md).\n"), &read).len(), 1);
+    assert_eq!(
+        broken_links(&page("See [b](b.md#the-planet-shadow).\n"), &read).len(),
+        1
+    );
 }

@@ -146,7 +146,10 @@ fn command_drift(file: &str, text: &str) -> Vec<String> {
     for (line, span) in markdown::inline_code(text) {
         let words = shell_words(&span);
         let Some(args) = atmosim_args(&words) else { continue };
-        let Some(sub) = args.first() else { continue };
+        // `atmosim <command> --help` names no command in particular.
+        let Some(sub) = args.first().filter(|s| !s.starts_with('<')) else {
+            continue;
+        };
         let at = format!("{file}:{line}: `{span}`");
         if sub.starts_with('-') {
             if !["--help", "-h", "--version", "-V"].contains(&sub.as_str()) {
@@ -223,4 +226,28 @@ fn a_drifted_command_is_caught() {
         assert_ne!(drifted, good, "{what}: the copy did not drift");
         assert!(!command_drift("drifted", &drifted).is_empty(), "{what}: not caught");
     }
+}
+
+#[test]
+fn each_commands_help_names_what_it_makes_and_its_chapter() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cli = crate::Cli::command();
+    let about = cli.get_about().map(|a| a.to_string()).unwrap_or_default();
+    assert!(about.contains("docs/README.md"), "{about}");
+    let mut count = 0;
+    for sub in cli.get_subcommands() {
+        count += 1;
+        let about = sub.get_about().map(|a| a.to_string()).unwrap_or_default();
+        let chapter = about
+            .rsplit_once("(docs/")
+            .and_then(|(_, c)| c.strip_suffix(')'))
+            .unwrap_or_else(|| panic!("{}: no chapter in {about:?}", sub.get_name()));
+        assert!(
+            root.join("docs").join(chapter).exists(),
+            "{}: docs/{chapter}",
+            sub.get_name()
+        );
+        assert!(!about.contains('\n'), "{}: more than a line", sub.get_name());
+    }
+    assert_eq!(count, 12);
 }
