@@ -1,6 +1,6 @@
 //! A measurement, not a feature: does a bidirectional estimator carry
 //! twilight light more cheaply than the tracer's sun-aware connections?
-//! (README, "Measured on 2026-11-28 and not kept", items 13 and 14.)
+//! (docs/lab-notes/2026-11-28.md, "Measured on 2026-11-28 and not kept", items 13 and 14.)
 //!
 //! For one wavelength, scalar (I only), a point sun, a black ground and
 //! the layered medium of a directions job's first task (spherical
@@ -27,7 +27,7 @@
 //!
 //! With `--extra N` (and no light subpaths) each collision also gets N
 //! directions that are not followed, only connected to the sun along
-//! their flights (README, item 14).
+//! their flights (docs/lab-notes/2026-11-28.md, item 14).
 //!
 //! With `--sun along --forced --lobe 0.3` its sensor side is about as
 //! noisy as the tracer's (a fixed lobe, cruder densities, no Mie phase
@@ -71,7 +71,7 @@ use glam::DVec3;
 const MAX_VERTICES: usize = 200;
 
 #[derive(Parser)]
-#[command(about = "Bidirectional twilight probe (a measurement; README, item 13 of 2026-11-28)")]
+#[command(about = "Bidirectional twilight probe (a measurement; docs/lab-notes/2026-11-28.md, item 13 of 2026-11-28)")]
 struct Args {
     /// A directions job (spherical, one wavelength; its first task).
     job: PathBuf,

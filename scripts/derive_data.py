@@ -17,6 +17,11 @@ data/ and validation/). Only the standard library is used. The script writes
   validation/libradtran/*_layers.txt      libRadtran 2.0.3 per-layer optical depths
   validation/libradtran/columns.txt       libRadtran column optical depths
 
+spectra/cie1931_2deg_5nm.txt (the CIE 1931 colour-matching functions of the
+previews) is not written here: the shared data holds no CIE table, so it was
+entered from CIE 15:2004, Table T.4, and src/io/srgb.rs tests it against
+published chromaticities.
+
 Every output starts with '#' lines naming the source file and what was changed
 (only re-ordering, unit conversion and column selection: no number is altered
 beyond the stated unit conversions). atmosim embeds these files at compile time.

@@ -13,7 +13,7 @@ use cli::signals::Interrupted;
 #[command(
     name = "atmosim",
     version,
-    about = "Spectral, polarised Monte Carlo path tracer for the Earth's atmosphere"
+    about = "Spectral, polarised Monte Carlo path tracer for the Earth's atmosphere: skies as Stokes vectors per wavelength (the book: docs/README.md)"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -22,45 +22,29 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run a libRadtran uvspec input file (a subset of its keywords, see
-    /// README) and print uvspec-style output.
+    /// Makes uvspec-style output from a libRadtran uvspec input file (docs/uvspec.md).
     Uvspec(cli::uvspec::UvspecArgs),
-    /// Run validation cases against external references (published
-    /// benchmarks, DISORT, libRadtran) and write a report.
+    /// Makes a report and plots of validation cases against their references (docs/validation.md).
     Validate(cli::validate::ValidateArgs),
-    /// Print the per-layer optical depths of a job's atmosphere (the built-in
-    /// default atmosphere when no job file is given).
+    /// Prints the per-layer optical depths of a job's atmosphere, or the default one (docs/atmosphere.md).
     Atmosphere(cli::atmosphere::AtmosphereArgs),
-    /// Time the throughput reference case (US-standard Rayleigh, 550 nm,
-    /// 12 directions, polarised); the last line is
-    /// `paths_per_second_per_core: <number>`.
+    /// Prints the throughput of the reference case, or with --grid the sky model grid's cost (docs/performance.md).
     Bench(cli::bench::BenchArgs),
-    /// List a job's tasks with their cost: paths and core-hours estimated
-    /// from a short calibration render of the first task.
+    /// Prints a job's tasks with their paths and core-hours; with --slurm writes an array script (docs/clusters.md).
     Plan(cli::plan::PlanArgs),
-    /// Combine the shards (`render --shard K/N`) of every task under an
-    /// output directory into the tasks' final files.
+    /// Makes the final files of tasks rendered in shards (`render --shard K/N`) (docs/clusters.md).
     Merge(cli::merge::MergeArgs),
-    /// Transmittance tables T(altitude, ground distance) from the observer,
-    /// per task (visibility × observer altitude), all wavelengths at once:
-    /// transmittance.csv and transmittance.exr.
+    /// Makes transmittance tables T(altitude, distance) from the observer: CSV and EXR (docs/transmittance.md).
     Transmittance(cli::transmittance::TransmittanceArgs),
-    /// Render a job: for a `directions` sensor, a CSV of Stokes radiances
-    /// per wavelength and direction (radiance.csv) and the fluxes at the
-    /// observer level (fluxes.csv).
+    /// Makes Stokes images (EXR, PNG previews) or radiance and flux CSVs of a job's tasks (docs/outputs.md).
     Render(cli::render::RenderArgs),
-    /// Fit rendered skies and transmittance tables into a dataset file the
-    /// Prague sky model's runtime reads (settings in FIT.toml).
+    /// Makes a Prague sky model dataset from rendered skies, settings in FIT.toml (docs/sky-models.md).
     Fit(cli::fit::FitArgs),
-    /// Evaluate a sky-model dataset with the runtime's semantics: a
-    /// summary, answers to a CSV of queries, or sphere/fisheye images.
+    /// Makes images of a sky model dataset, or answers a CSV of queries, as its runtime does (docs/sky-models.md).
     Eval(cli::eval::EvalArgs),
-    /// Compare a fitted dataset with its renders: SNR, errors by axis,
-    /// interpolation ratio, transmittance error; a Markdown report.
+    /// Makes a Markdown report of a fitted dataset against its renders (docs/sky-models.md).
     FitReport(cli::fit_report::FitReportArgs),
-    /// Compute the OPAC components' Mie tables (k_ext, ssa, g and phase
-    /// matrices at every tabulated humidity, 300-800 nm) into
-    /// atmospheres/opac/mie/ (see README).
+    /// Makes the OPAC components' Mie tables in atmospheres/opac/mie/ (docs/atmosphere.md).
     OpacTables(cli::opac_tables::OpacTablesArgs),
 }
 

@@ -15,7 +15,7 @@
 //!   errors give with 16 seeds, `SeedRuns::spread_window`: about
 //!   0.78–1.23 for 6 directions, 0.82–1.19 for 9).
 //! - The variance of I per path with the lobe over that without is
-//!   printed per job (the measured gains are in README, "Scattering around
+//!   printed per job (the measured gains are in docs/design-sun.md, "Scattering around
 //!   the sun").
 //!
 //! `ATMOSIM_VALIDATION_SAMPLES` sets the paths per direction and seed

@@ -355,7 +355,7 @@ fn shared_paths_equal_single_wavelength_renders_for_every_transport_option() {
     shared_paths_against_single_wavelengths(pseudo, &[320.0, 500.0, 760.0], 10_000);
     // Bands of 40 nm, each alone against all three along shared paths, by
     // day and with the sun set (sun-aware connections). With the sun set a
-    // path's contribution is heavy-tailed (README, "Noise targets"): at
+    // path's contribution is heavy-tailed (docs/noise-targets.md, heavy tails): at
     // 10,000 paths a single band's Q at 740 nm looking down read 1.43e-6 ±
     // 0.27e-6 where 200,000 paths give 2.73e-6 ± 0.14e-6 alone and 2.97e-6
     // ± 0.08e-6 shared (the standard error from 10,000 paths missed the

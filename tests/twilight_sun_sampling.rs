@@ -16,7 +16,7 @@
 //!   what `auto` picks for each job.
 //!
 //! `ATMOSIM_VALIDATION_SAMPLES` sets the paths per direction and seed
-//! (default 1500, sized for CI; the README's figures are at 50,000) and
+//! (default 1500, sized for CI; the figures of docs/design-sun.md are at 50,000) and
 //! `ATMOSIM_TWILIGHT_SUN` the sun elevations.
 
 mod common;

@@ -22,7 +22,7 @@ use super::common::thread_pool;
 
 #[derive(clap::Args)]
 pub struct FitArgs {
-    /// Fit settings (TOML): `renders`, `out` and optionally `transmittance` (see README).
+    /// Fit settings (TOML): `renders`, `out` and optionally `transmittance` (docs/sky-models.md).
     settings: PathBuf,
     /// Worker threads (0 or absent: one per available core).
     #[arg(long)]

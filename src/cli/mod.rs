@@ -5,6 +5,8 @@
 pub mod atmosphere;
 pub mod bench;
 pub mod common;
+#[cfg(test)]
+mod doc_commands;
 pub mod eval;
 pub mod fit;
 pub mod fit_report;

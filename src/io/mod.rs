@@ -1,5 +1,5 @@
-//! Files in and out: CSV tables, OpenEXR images, PNG previews; every file
-//! written atomically.
+//! Files in and out: CSV tables, OpenEXR images, PNG previews and their
+//! colour (CIE 1931 to sRGB); every file written atomically.
 
 pub mod atomic;
 pub mod canvas;
@@ -7,4 +7,5 @@ pub mod exr;
 pub mod output;
 pub mod preview;
 pub mod sky_image;
+pub mod srgb;
 pub mod sun_table;

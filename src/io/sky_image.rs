@@ -10,7 +10,8 @@ use crate::film::ground_view::{GROUND_VIEW_SAMPLES, traced_rows};
 use crate::film::image::{ImageLayer, SkyImage};
 use crate::io::atomic::write_atomic;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
-use crate::io::preview::{srgb_preview, write_png};
+use crate::io::preview::write_png;
+use crate::io::srgb::srgb_pixels;
 use crate::io::sun_table::{SUN_FILE, sun_csv};
 use crate::job::{AtmosphereSource, Job, RadianceUnits, Task};
 use crate::physics::aerosol::AerosolPhase;
@@ -69,7 +70,7 @@ pub fn write(dir: &Path, job: &Job, task: &Task, camera: &Camera, image: &SkyIma
     let first: Vec<&ImageLayer> = image.layers.iter().filter(|l| l.albedo == spec.albedos[0]).collect();
     let wavelengths: Vec<f64> = first.iter().map(|l| l.wavelength_nm).collect();
     let spectra: Vec<&[f64]> = first.iter().map(|l| l.mean[0].as_slice()).collect();
-    let (rgb, exposure) = srgb_preview(&wavelengths, &spectra, spec.exposure);
+    let (rgb, exposure) = srgb_pixels(&wavelengths, &spectra, spec.exposure);
     // The layers hold the tracer's radiance: per unit E0, or absolute
     // where the tracer weighted by E0 (bands, see `Job::unit_scale`).
     let units = if job.tracer_weights_by_solar() {

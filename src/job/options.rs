@@ -60,13 +60,13 @@ pub struct Settings {
     /// `first_vertex_splitting`). By default on for fixed-sample renders
     /// and off under a noise target, which counts I alone: the split cuts
     /// the noise of Q and U most and costs I more time than it saves it
-    /// (README, "Noise targets", the first scattering unsplit).
+    /// (docs/noise-targets.md, the first scattering unsplit).
     pub split_first_scattering: bool,
     /// Effective throughput (mean over the channels, with the balance
     /// heuristic's denominator) below which Russian roulette starts, from
     /// the second vertex on; a survivor carries this much. By day (sun
     /// connections at collisions) a path whose view is thin scales it down
-    /// by the view's chance to scatter (README, "Thin views roulette
+    /// by the view's chance to scatter (docs/design.md, "Thin views roulette
     /// later").
     pub roulette_threshold: f64,
 }
@@ -83,7 +83,7 @@ impl Settings {
 /// jobs of 12 views, sun −4.2° to 45°, observers at 0 and 15 km) the
 /// variance per path fell 1.2–2.8× (twilight paths climb to sunlit air,
 /// and paths from 15 km leave its thin air, with throughputs of a few
-/// hundredths) at about 1.3× the time per path (README, "Transport").
+/// hundredths) at about 1.3× the time per path (docs/design.md, "Transport").
 pub const DEFAULT_ROULETTE_THRESHOLD: f64 = 0.03;
 
 /// How the channels that share spectral paths are grouped (closed set):
@@ -104,7 +104,7 @@ pub enum SpectralGroups {
 /// channels at which `spectral_groups = "auto"` makes two groups: the
 /// sky model grid's bands span 5 (20 km visibility) to 12 (131.8 km) and
 /// gain from two; the quickstart's wavelengths span 2.2 and do not (13.8 M
-/// paths against 8.5 M for the same noise target, README "Spectral
+/// paths against 8.5 M for the same noise target, docs/design.md "Spectral
 /// groups").
 pub const AUTO_GROUPS_MIN_SPREAD: f64 = 3.0;
 
@@ -119,9 +119,9 @@ pub enum SunSampling {
     SunAware,
     /// `SunAware` in plane-parallel geometry (where it costs little) and
     /// for a sun lower than 10° above the horizon, else `Collision`: where
-    /// the measured efficiencies of the two cross over (README, "Sun
+    /// the measured efficiencies of the two cross over (docs/design-sun.md, "Sun
     /// connections at twilight"); with the sun 10° to 25° up, scattering
-    /// directions are also drawn in part about the sun (README,
+    /// directions are also drawn in part about the sun (docs/design-sun.md,
     /// "Scattering around the sun").
     Auto,
 }

@@ -220,6 +220,10 @@ pub static OZONE_CROSS_SECTIONS: &[(&str, &str)] = embedded! {
     "molina" => "spectra/ozone_molina.txt",
 };
 
+/// The CIE 1931 2° colour-matching functions, 380–780 nm every 5 nm (the
+/// colour of previews, `io::srgb`).
+pub static CIE_1931_2DEG: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/cie1931_2deg_5nm.txt"));
+
 /// Kurucz (1992) extraterrestrial solar irradiance, 1 nm, W m⁻² nm⁻¹.
 pub static SOLAR_KURUCZ: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/solar_kurucz_1nm.txt"));
 

@@ -40,8 +40,8 @@
 //! contribution is heavy-tailed (at twilight the paths that carry most of
 //! the variance are rarer than one in a thousand), and an estimate of a
 //! pixel's variance from a few dozen paths falls short of the variance
-//! itself, so a looser target understated the cost (README, "Noise
-//! targets").
+//! itself, so a looser target understated the cost (docs/noise-targets.md,
+//! heavy tails).
 
 use std::io::Write;
 use std::time::Instant;

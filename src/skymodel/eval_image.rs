@@ -15,7 +15,8 @@ use glam::DVec3;
 use super::runtime::{Model, Parameters};
 use crate::error::Result;
 use crate::io::exr::{Channel, wavelength_label, write_exr};
-use crate::io::preview::{srgb_preview, write_png};
+use crate::io::preview::write_png;
+use crate::io::srgb::srgb_pixels;
 use crate::sensor::camera::Camera;
 
 /// What to evaluate.
@@ -125,7 +126,7 @@ pub fn write(
         &attrs,
     )?;
     let spectra: Vec<&[f64]> = image.radiance.iter().map(|v| v.as_slice()).collect();
-    let (rgb, exposure) = srgb_preview(&view.wavelengths_nm, &spectra, None);
+    let (rgb, exposure) = srgb_pixels(&view.wavelengths_nm, &spectra, None);
     write_png(
         &dir.join(format!("{stem}.png")),
         image.width,

@@ -48,7 +48,7 @@ pub const PIECE_DEPTH: f64 = 0.3;
 /// sun the depth is far from linear, and a piece that follows it
 /// linearly draws too few points where it dips, which makes heavy tails
 /// (where it bulges, the piece only draws more points than it needs).
-/// Measured on 2026-11-27 (README, "Sun connections along shared
+/// Measured on 2026-11-27 (docs/design-sun.md, "Sun connections along shared
 /// paths"): twilight paths about 5 % dearer, the largest variance per
 /// path at 620-740 nm about a third.
 const SPLIT_LENGTH_KM: f64 = 40.0;
@@ -70,7 +70,7 @@ pub const MAX_FOLLOWED: usize = 2;
 /// for the less extinct channel serves it little (320-360 nm single
 /// scattering seen from 15 km, sun 1° down: a variance per path of 0.33
 /// in its group at equal shares, 0.11 alone). Measured on 2026-11-28
-/// (README, "Sun connections along shared paths"): the grid's twelve
+/// (docs/design-sun.md, "Sun connections along shared paths"): the grid's twelve
 /// sun-aware tasks need 1-3 % fewer paths than with equal shares
 /// (geometric mean at three seeds), the one from 15 km at −4.2° and
 /// 131.8 km 14-17 % more (its least extinct band limits it); 0.85 raised

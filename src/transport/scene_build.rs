@@ -37,7 +37,7 @@ impl Job {
     /// toward the sun's horizon (`tracer::sun_lobe`, then a fixed lobe),
     /// which serves the 480–760 nm bands far more than 320–360 nm: with it
     /// two groups cost 0.57–0.69 times one (`bench --grid` tasks at −4.2°,
-    /// 20 km visibility, README "Spectral groups").
+    /// 20 km visibility, docs/design.md "Spectral groups").
     pub fn spectral_groups(&self, task: &Task) -> Vec<Vec<usize>> {
         let n = self.wavelengths_nm.len();
         let ln_tau: Vec<f64> = (0..n)

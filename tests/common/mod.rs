@@ -5,6 +5,7 @@
 //! running the binary as a user does.
 #![allow(dead_code)]
 
+pub mod markdown;
 pub mod synthetic_sky;
 
 use std::path::Path;

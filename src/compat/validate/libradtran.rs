@@ -168,7 +168,7 @@ const POLRAD_MIE_NOTE: &str = "2e-4 × I plus polRadtran's own truncation error 
      peak, which makes polRadtran's I 27 % high 90° from the sun and 80 % low looking at it. Informational: that \
      estimate misses up to 0.3 % of I where aerosol changes the polarisation's effect on I (upwelling at 10 km), and \
      the reference has no other measure of its Q, U accuracy; measured: |ΔQ|, |ΔU| ≤ 0.4 % of I everywhere \
-     (README, Validation)";
+     (docs/validation.md)";
 
 /// The libRadtran cases.
 pub(super) fn cases() -> Vec<Case> {

@@ -305,7 +305,7 @@ impl Scene {
     /// The depths to a point along them are summed when a point is
     /// connected (`sun_at_point`): a flight connects one point or a few,
     /// and keeping every segment's depths cost about 7 % of a twilight
-    /// path's time (README, "Sun connections along shared paths").
+    /// path's time (docs/design-sun.md, "Sun connections along shared paths").
     pub(super) fn flight_segments(&self, path: &mut Path, ray: &Ray) -> bool {
         let Path {
             segments, ray: depths, ..

@@ -91,7 +91,8 @@
 //! quadrature).
 //!
 //! What was measured and chosen (hero choice, roulette, splitting, the
-//! sun-aware share): README, "Throughput" and "Sun connections".
+//! sun-aware share): docs/design.md, docs/design-sun.md and the lab notes
+//! they link to.
 
 mod aerosol_phase;
 mod channel_optics;

@@ -97,7 +97,7 @@ impl Depths {
 
 /// The most segments in one piece of a sun-aware density along shared
 /// paths, where building it costs per segment and followed channel
-/// (chosen by measurement: README, "Sun connections along shared paths").
+/// (chosen by measurement: docs/design-sun.md, "Sun connections along shared paths").
 pub(super) const PIECE_SEGMENTS: usize = 4;
 
 /// What sun-aware connections along shared paths draw their point from:
@@ -304,7 +304,7 @@ pub(super) const VIEW_ROULETTE_MIN_SCALE: f64 = 0.03;
 /// same level relative to the view's own radiance. Any threshold leaves
 /// the estimate unbiased; this one is set before the path's first
 /// roulette. The tracer scales it only where sun connections are at
-/// collisions (by day with `auto`). Measured (README, "Transport":
+/// collisions (by day with `auto`). Measured (docs/design.md, "Transport":
 /// directions jobs in the sky model grid's atmosphere, the cost to a noise
 /// target in every direction, Σ over directions of time × the worst
 /// band's and albedo's variance per path): from 15 km with the sun at 45°

@@ -43,7 +43,7 @@ pub struct Scene {
     /// its albedo-free contribution, so L(a) = Σ_k a^k L_k exactly. Flights
     /// toward the ground are forced only when no albedo reflects, so an
     /// albedo 0 in a list with reflecting ones is noisier than alone
-    /// (README, "albedo").
+    /// (docs/job-files.md, "albedo").
     pub albedos: Vec<f64>,
     pub settings: Settings,
     pub(super) levels_km: Vec<f64>,

@@ -169,7 +169,7 @@ impl Scene {
         // 2026-11-27 Henyey–Greenstein stood in for the tables too: its
         // forward peak is several times lower, and twilight paths that
         // scatter sunlight forward toward the sensor were drawn too rarely;
-        // README, "Sun connections along shared paths".)
+        // docs/design-sun.md, "Sun connections along shared paths".)
         let mut rayleigh = [(f64::NAN, 0.0); 2];
         let mut aerosol = [(f64::NAN, 0.0); 2];
         let tabulated = !follow.aerosol_p11.is_empty();

@@ -56,7 +56,7 @@
 //! the factor to the target) came out 0.76–0.89 times at 20 km visibility,
 //! 0.79–1.02 at 131.8 km, a path 1.08–1.16 times as dear (paths into the
 //! sunlit air live longer); the dearest task (−4.2°, 15 km) 0.87 times in
-//! all (README, "Scattering toward the sunlit air"). With the sun up it
+//! all (docs/design-sun.md, "Scattering toward the sunlit air"). With the sun up it
 //! serves only channels of little column extinction
 //! ([`SUN_LOBE_SUN_UP_MAX_COLUMN`]) below
 //! [`SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG`], limits chosen with the fixed
@@ -82,7 +82,7 @@ pub const SUN_LOBE_SHARE: f64 = 0.3;
 /// group of 480–760 nm (column extinction 0.27–0.57) cost about half with
 /// it at 2° (ground 8.6 against 16.8, 15 km 1.4 against 1.7), and the group
 /// of 320–480 nm (up to 1.37, 320–360 nm) 1.8 times more from the ground
-/// (24.2 against 13.7), its long horizontal paths opaque (README, "Sun
+/// (24.2 against 13.7), its long horizontal paths opaque (docs/design-sun.md, "Sun
 /// connections at twilight"). 0.7 lies between the largest column
 /// extinction of the 480–760 nm group at 20 km visibility (0.57, 480–520
 /// nm) and that of the 320–480 nm group at 131.8 km (0.81, 320–360 nm),
@@ -115,7 +115,7 @@ const BINS: usize = SUN_LOBE_BINS;
 /// the cosine. The row holds √(F·μ) from the ground (F as for the layers,
 /// μ the cosine a Lambertian ground weighs a direction by): the square
 /// root tempers the row's peak toward the sun's horizon. Measured on
-/// 2026-11-28 (README, "Scattering toward the sunlit air"): the paths
+/// 2026-11-28 (docs/design-sun.md, "Scattering toward the sunlit air"): the paths
 /// to the target 0.94-0.97 times as many (geometric means over the four
 /// −4.2° tasks at three seeds, over the −1° and 2° tasks at one), the
 /// 131.8 km −4.2° task from 15 km 0.82 times at every seed, a path

@@ -14,7 +14,7 @@
 //! model grid's atmosphere, 20 km visibility, ground observer, 40 nm
 //! bands) single scattering carries 3–43 % of the radiance, and a path's
 //! variance of I over I² grows from 0.02–0.13 for single scattering to
-//! 0.2–0.5 with the second order (README, "Scattering around the sun").
+//! 0.2–0.5 with the second order (docs/design-sun.md, "Scattering around the sun").
 //!
 //! So a scattering direction comes with probability [`SUN_PEAK_SHARE`]
 //! from a Henyey–Greenstein lobe of [`SUN_PEAK_G`] about the direction
@@ -26,7 +26,7 @@
 //! on the sun's direction alone: renders stay bit-identical across threads,
 //! resumes and shards.
 //!
-//! Chosen by measurement (directions jobs of README "Transport": the cost
+//! Chosen by measurement (directions jobs of docs/design.md "Transport": the cost
 //! to a noise target, the two spectral groups' time × their worst band's
 //! median variance per path): with the sun at 10°, 15° and 20° it cost
 //! 0.78, 0.82 and 0.76 times as much seen from the ground and 0.87, 0.88
@@ -35,7 +35,7 @@
 //! (its worst band 0.66 against 1.01 times at 15°), the 320–480 nm group
 //! hardly moves (the low sun's light reaches the lower air scattered, not
 //! direct). Shares 0.05, 0.15, 0.2 and 0.35 and g of 0.6, 0.85 and 0.9
-//! were no better (README).
+//! were no better (docs/design-sun.md).
 
 use glam::DVec3;
 

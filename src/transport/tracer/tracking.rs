@@ -34,13 +34,13 @@
 use crate::transport::medium::density_steps;
 
 /// The most a basis vector's σ may vary inside a merged layer, as a
-/// fraction of its largest value there (chosen by measurement: README,
+/// fraction of its largest value there (chosen by measurement: docs/design.md,
 /// "Fine profiles").
 pub const MERGE_SPREAD: f64 = 0.25;
 
 /// The residual's rate over the most |σ − σ̄| in a merged layer: the
 /// relative variance of ratio tracking, e^(∫r²/μ) − 1, falls as 1/μ while
-/// its points grow as μ (chosen by measurement: README, "Fine profiles").
+/// its points grow as μ (chosen by measurement: docs/design.md, "Fine profiles").
 pub const RATE_SCALE: f64 = 2.0;
 
 /// The profile's layer count above which `tracking_layers = "auto"`
