@@ -697,10 +697,9 @@ fn a_drifted_outputs_chapter_is_caught() {
 
 // Paths named in the book
 
-/// Chapters written on another branch at the time of writing (the grid
-/// sizing study, issue 57): named by the book before they arrive. Leave
-/// the list empty once they are on main.
-const OWNED_ELSEWHERE: [&str; 1] = ["docs/grid-sizing.md"];
+/// Chapters written on another branch at the time of writing, named by the
+/// book before they arrive (none now).
+const OWNED_ELSEWHERE: [&str; 0] = [];
 
 /// The repository paths in the book's code spans (those starting with a
 /// top-level folder of the repository or naming a top-level file) that do
