@@ -129,6 +129,12 @@ pub fn twin_summary(twin: &[TwinScore]) -> Option<(Spread, Option<Spread>)> {
     ))
 }
 
+/// A value for a table, rounded to 1e-9 so that an elevation computed as
+/// 90° − zenith prints as written in the job (−4.2, not −4.200000000000003).
+fn tidy(x: f64) -> String {
+    format!("{}", (x * 1e9).round() / 1e9)
+}
+
 /// A Markdown table of the mean share per region of `rows` (elevation,
 /// altitude (m), shares), grouped by sun elevation and observer altitude.
 fn region_table(what: &str, rows: &[(f64, f64, [f64; 4])]) -> String {
@@ -150,7 +156,7 @@ fn region_table(what: &str, rows: &[(f64, f64, [f64; 4])]) -> String {
         let means: Vec<String> = (0..4)
             .map(|k| format!("{:.2}", group.iter().map(|g| g[k]).sum::<f64>() / n))
             .collect();
-        md.push_str(&format!("| {e} | {h} | {} |\n", means.join(" | ")));
+        md.push_str(&format!("| {} | {h} | {} |\n", tidy(e), means.join(" | ")));
     }
     md
 }
@@ -342,7 +348,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
                 s.visibility_km,
                 s.albedo,
                 s.altitude_m,
-                s.elevation_deg,
+                tidy(s.elevation_deg),
                 s.wavelength_nm,
                 s.snr_db,
                 s.noise_floor_db,
@@ -396,7 +402,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             .iter()
             .map(|&v| {
                 (
-                    format!("{v}"),
+                    tidy(v),
                     scores.iter().filter(|s| key(s) == v).map(|s| s.nmae).collect(),
                 )
             })
@@ -408,7 +414,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             let f = five_numbers(g).unwrap_or([f64::NAN; 5]);
             let snr_min = scores
                 .iter()
-                .filter(|s| format!("{}", key(s)) == *label)
+                .filter(|s| tidy(key(s)) == *label)
                 .fold(f64::INFINITY, |m, s| m.min(s.snr_db));
             md.push_str(&format!("| {label} | {:.4} | {:.4} | {snr_min:.2} |\n", f[2], f[4]));
         }
@@ -443,7 +449,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
                 s.visibility_km,
                 s.albedo,
                 s.altitude_m,
-                s.elevation_deg,
+                tidy(s.elevation_deg),
                 s.wavelength_nm,
                 s.rmse_interpolated,
                 s.rmse_fit,
@@ -459,7 +465,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             s.visibility_km,
             s.albedo,
             s.altitude_m,
-            s.elevation_deg,
+            tidy(s.elevation_deg),
             s.wavelength_nm,
             s.snr_db,
             s.noise_floor_db,
