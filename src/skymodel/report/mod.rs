@@ -400,12 +400,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
         values.dedup();
         let groups: Vec<(String, Vec<f64>)> = values
             .iter()
-            .map(|&v| {
-                (
-                    tidy(v),
-                    scores.iter().filter(|s| key(s) == v).map(|s| s.nmae).collect(),
-                )
-            })
+            .map(|&v| (tidy(v), scores.iter().filter(|s| key(s) == v).map(|s| s.nmae).collect()))
             .collect();
         let png = format!("nmae_by_{file}.png");
         write_box_plot(&dir.join(&png), &format!("NMAE by {title}"), &groups)?;
