@@ -156,12 +156,27 @@ def paths_of(out, name):
     return paths
 
 
+def image_key(r):
+    """An image of a report's CSV: its configuration and channel."""
+    return tuple(float(r[k]) for k in ("visibility_km", "albedo", "altitude_m", "elevation_deg", "wavelength_nm"))
+
+
+def task_name(r):
+    """The task directory of a report's CSV row."""
+    return "vis{:05.1f}_elev{:+05.1f}_alt{:05.0f}m".format(
+        float(r["visibility_km"]), float(r["elevation_deg"]), float(r["altitude_m"]))
+
+
 def summarise(out, row, reference):
     """The row's figures from its report."""
     report = out / f"{row}.report"
     ref = rows_of(report / "reference.csv")
-    twin = rows_of(report / "twin.csv")
-    assert len(ref) == len(twin), "reference and twin cover the same images"
+    twin_all = rows_of(report / "twin.csv")
+    # The reference may cover a subset of the configurations (a reference
+    # render costs 16 times a row's): the figures against it are over that
+    # subset, the seed-to-seed figures over every image and over the subset.
+    by_key = {image_key(t): t for t in twin_all}
+    twin = [by_key[image_key(r)] for r in ref]
     # The debiased SNR, or its lower bound where the reference does not
     # resolve the error.
     debiased = [number(r["debiased_snr_db"]) if r["debiased_snr_db"] else number(r["debiased_snr_lower_db"])
@@ -180,10 +195,7 @@ def summarise(out, row, reference):
     mean = lambda v: sum(v) / len(v)
     per_image = {}
     for r, s, i in zip(ref, debiased, inherited):
-        key = (r["visibility_km"], r["albedo"], r["altitude_m"], r["elevation_deg"], r["wavelength_nm"])
-        task = "vis{:05.1f}_elev{:+05.1f}_alt{:05.0f}m".format(
-            float(r["visibility_km"]), float(r["elevation_deg"]), float(r["altitude_m"]))
-        per_image[key] = (10 ** (-s / 10), 10 ** (-i / 10), task)
+        per_image[image_key(r)] = (10 ** (-s / 10), 10 ** (-i / 10), task_name(r))
     return per_image, {
         "images": len(ref),
         "snr_mean": mean(debiased),
@@ -192,10 +204,13 @@ def summarise(out, row, reference):
         "reference_floor_mean": mean([number(r["noise_floor_db"]) for r in ref]),
         "unresolved": sum(1 for r in ref if not r["debiased_snr_db"]),
         "pol_error_mean": mean(pol) if pol else float("nan"),
-        "seed_to_seed_mean": mean([number(t["seed_to_seed_snr_db"]) for t in twin]),
-        "seed_to_seed_min": min(number(t["seed_to_seed_snr_db"]) for t in twin),
-        "inherited_mean": mean(inherited),
-        "inherited_min": min(inherited),
+        "seed_to_seed_mean": mean([number(t["seed_to_seed_snr_db"]) for t in twin_all]),
+        "seed_to_seed_min": min(number(t["seed_to_seed_snr_db"]) for t in twin_all),
+        "inherited_mean": mean([number(t["inherited_snr_db"]) for t in twin_all]),
+        "inherited_min": min(number(t["inherited_snr_db"]) for t in twin_all),
+        "twin_images": len(twin_all),
+        "inherited_mean_on_reference": mean(inherited),
+        "inherited_min_on_reference": min(inherited),
         "fit_own_mean": mean(fit_own),
         "render_noise_cost_db_mean": mean(cost),
         "render_noise_cost_db_max": max(cost),
@@ -231,6 +246,58 @@ def converged_gap(out, ref_name, results, per_image, paths):
         f["converged_snr_mean"] = c_mean
         f["converged_snr_min"] = min(converged.values())
         f["gap_to_converged_db"] = c_mean - f["snr_mean"]
+
+
+def required_target(out, row, rows, allowed_db=0.5):
+    """The loosest image noise target (`noise_target_per = "image"`, the
+    worst band and albedo of a task held to it) at which the render noise
+    costs at most `allowed_db` on the mean over the images (dB) of the SNR
+    against the converged sky, at the row's resolution.
+
+    Per image the fit's own error b (the error against the converged sky
+    less the inherited noise, floored at a tenth of the error) stays, and
+    the inherited noise n scales with the task's paths: a target t scales a
+    task's paths by (ν_max / t)², ν_max the task's worst image noise in the
+    row's renders (their noise floor in the report's images.csv). That
+    keeps the row's allocation within each image; the image target's own
+    allocation does better, so the target errs tight. Returns (target,
+    mean cost, worst image's cost)."""
+    images = {image_key(r): r for r in rows_of(out / f"{row}.report" / "images.csv")}
+    worst = {}
+    for k, r in images.items():
+        task = task_name(r)
+        worst[task] = max(worst.get(task, 0.0), 10 ** (-number(r["noise_floor_db"]) / 20))
+    own = [(max(e - n, 0.1 * e), n, worst[task]) for e, n, task in rows.values()]
+
+    def cost(t):
+        costs = [10 * math.log10((b + n * (t / w) ** 2) / b) for b, n, w in own]
+        return sum(costs) / len(costs), max(costs)
+
+    lo, hi = 1e-4, 1.0
+    for _ in range(60):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if cost(mid)[0] <= allowed_db else (lo, mid)
+    return (lo,) + cost(lo)
+
+
+def region_table(out, row):
+    """Per sun elevation and observer altitude: the share of the fit's own
+    error (against the reference) and of the inherited noise (seed to seed)
+    in each region, averaged over the images."""
+    report = out / f"{row}.report"
+    names = ("aureole", "horizon", "below", "sky")
+    lines = ["| sun | observer | fit's error vs converged sky: aureole / horizon / below / sky "
+             "| inherited noise: aureole / horizon / below / sky |", "|---|---|---|---|"]
+    ref, twin = rows_of(report / "reference.csv"), rows_of(report / "twin.csv")
+    configs = sorted({(float(r["elevation_deg"]), float(r["altitude_m"])) for r in twin})
+    for elev, alt in configs:
+        def shares(rows, prefix):
+            rs = [r for r in rows if float(r["elevation_deg"]) == elev and float(r["altitude_m"]) == alt]
+            if not rs:
+                return "–"
+            return " / ".join("{:.2f}".format(sum(number(r[prefix + n]) for r in rs) / len(rs)) for n in names)
+        lines.append(f"| {elev:g}° | {alt / 1000:g} km | {shares(ref, 'excess_')} | {shares(twin, 'difference_')} |")
+    return "\n".join(lines)
 
 
 def main():
@@ -277,6 +344,11 @@ def main():
         print(json.dumps({row: figures}, indent=1), flush=True)
 
     converged_gap(out, ref_name, results, per_image, paths)
+    for row, f in results.items():
+        t, mean_cost, max_cost = required_target(out, row, per_image[row])
+        f["required_image_target"] = t
+        f["required_target_cost_db_mean"] = mean_cost
+        f["required_target_cost_db_max"] = max_cost
     (out / "study.json").write_text(json.dumps(results, indent=1))
     print("\n| row | resolution | render | vs converged sky: SNR mean / min (dB) | below the converged renders' "
           "dataset (dB) | pol. error | seed-to-seed mean / min (dB) | inherited mean / min (dB) "
@@ -289,6 +361,12 @@ def main():
               f"| {f['inherited_mean']:.2f} / {f['inherited_min']:.2f} | {f['fit_own_mean']:.2f} "
               f"| {f['render_noise_cost_db_mean']:.2f} / {f['render_noise_cost_db_max']:.2f} "
               f"| {f['core_hours_mean']:.3f} / {f['core_hours_max']:.3f} |")
+    for row, f in results.items():
+        if "required_image_target" in f:
+            print(f"\n{row}: render noise costs at most 0.5 dB of the mean SNR against the converged sky at an image "
+                  f"noise target of {f['required_image_target']:.4f} at {f['width']}x{f['width'] // 2} (the worst "
+                  f"image then loses {f['required_target_cost_db_max']:.2f} dB).")
+        print(f"\nWhere the error is, {row}:\n\n" + region_table(out, row))
     if results:
         f = next(iter(results.values()))
         if "converged_snr_mean" in f:

@@ -198,10 +198,15 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         ("off", &extras.transmittance_off_nodes),
     ] {
         if let Some(t) = t {
-            println!(
-                "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
-                t.max_abs, t.points, t.worst_at
-            );
+            if t.points == 0 {
+                // The fit's own measure (no points of a check table).
+                println!("transmittance max |ΔT| {what} the nodes {:.2e} ({})", t.max_abs, t.worst_at);
+            } else {
+                println!(
+                    "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
+                    t.max_abs, t.points, t.worst_at
+                );
+            }
             if t.points > 0 {
                 println!(
                     "transmittance |ΔT| {what} the nodes: 99th percentile {:.2e}, mean {:.2e}",

@@ -171,11 +171,11 @@ pub fn scores_csv(scores: &[ImageScore]) -> String {
     for x in scores {
         s.push_str(&format!(
             "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.6},{},{:.4},{:.4},{:.4},{:.4}\n",
-            x.visibility_km,
-            x.albedo,
-            x.altitude_m,
-            x.elevation_deg,
-            x.wavelength_nm,
+            tidy(x.visibility_km),
+            tidy(x.albedo),
+            tidy(x.altitude_m),
+            tidy(x.elevation_deg),
+            tidy(x.wavelength_nm),
             x.snr_db,
             x.noise_floor_db,
             x.debiased_snr_db.map_or(String::new(), |v| format!("{v:.4}")),
@@ -201,11 +201,11 @@ pub fn twin_csv(twin: &[TwinScore]) -> String {
     for t in twin {
         s.push_str(&format!(
             "{},{},{},{},{},{:.4},{:.4},{},{:.4},{:.4},{:.4},{:.4}\n",
-            t.visibility_km,
-            t.albedo,
-            t.altitude_m,
-            t.elevation_deg,
-            t.wavelength_nm,
+            tidy(t.visibility_km),
+            tidy(t.albedo),
+            tidy(t.altitude_m),
+            tidy(t.elevation_deg),
+            tidy(t.wavelength_nm),
             t.seed_to_seed_snr_db,
             t.inherited_snr_db(),
             t.polarisation_difference.map_or(String::new(), |v| format!("{v:.6}")),
