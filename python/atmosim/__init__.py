@@ -316,9 +316,11 @@ class SkyModel:
 
     def polarisation(self, view_point_m, direction, sun_elevation_deg, sun_azimuth_deg,
                      visibility_km, albedo, wavelength_nm):
-        """The runtime's polarisation (degree of linear polarisation as the
-        runtime returns it: negated, dimensionless); ``ValueError`` for a
-        dataset without a polarisation part."""
+        """The runtime's polarisation (dimensionless): the degree of linear
+        polarisation as Q/I in the sun–view frame, positive where the light
+        is polarised across the plane of the sun and the view (as fitted
+        from renders, docs/sky-models.md); ``ValueError`` for a dataset
+        without a polarisation part."""
         return self._evaluate("polarisation", view_point_m, direction, sun_elevation_deg,
                               sun_azimuth_deg, visibility_km, albedo, wavelength_nm)
 

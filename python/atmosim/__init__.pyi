@@ -145,8 +145,8 @@ class SkyModel:
         albedo: ArrayLike,
         wavelength_nm: ArrayLike,
     ) -> np.ndarray:
-        """Degree of linear polarisation as the runtime returns it (negated),
-        dimensionless; ValueError without a polarisation part."""
+        """The runtime's degree of linear polarisation (Q/I in the sun–view
+        frame), dimensionless; ValueError without a polarisation part."""
     def transmittance(
         self,
         view_point_m: ArrayLike,
