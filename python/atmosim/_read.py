@@ -316,7 +316,7 @@ def _read_exr(path: Path, job=None):
     channels = dict(channels)
     lab = _Labelled(attrs=attrs)
     shape = (height, width)
-    if any(name.endswith(".T") for name in channels):  # a transmittance table
+    if "blocked" in channels:  # a transmittance table
         w = [float(x) for x in str(attrs["wavelengths_nm"]).split()]
         alts = [float(x) for x in str(attrs["altitudes_km"]).split()]
         dists = [float(x) for x in str(attrs["distances_km"]).split()]
@@ -331,6 +331,8 @@ def _read_exr(path: Path, job=None):
                 lab.var(name, dims, np.stack([p.reshape(shape) for p in planes]), units="1")
         lab.var("blocked", dims[1:], channels["blocked"].reshape(shape), units="1")
         return lab
+    if any(name.endswith(".I") and "_a" not in name for name in channels):
+        return _eval_image(lab, channels, shape)
     # A Stokes image: <λ>nm_a<albedo×100>.<S>[_se].
     w = [float(x) for x in str(attrs["wavelengths_nm"]).split()]
     a = [float(x) for x in str(attrs["albedos"]).split()]
@@ -364,6 +366,21 @@ def _read_exr(path: Path, job=None):
     return lab
 
 
+def _eval_image(lab, channels, shape):
+    """`atmosim eval`'s sphere or fisheye: <λ>nm.I, .P (with polarisation), .T."""
+    labels = sorted({n[: -len(".I")] for n in channels if n.endswith(".I")},
+                    key=lambda l: float(l[:-2].replace("p", ".")))
+    lab.coord("wavelength", ("wavelength",), np.array([float(l[:-2].replace("p", ".")) for l in labels]), units="nm")
+    lab.coord("y", ("y",), np.arange(shape[0]), long_name="row, 0 at the top")
+    lab.coord("x", ("x",), np.arange(shape[1]), long_name="column, 0 at the left")
+    for suffix, name, units in [("I", "sky_radiance", "W m-2 sr-1 nm-1"), ("P", "polarisation", "1"),
+                                ("T", "transmittance", "1")]:
+        planes = [channels.get(f"{l}.{suffix}") for l in labels]
+        if all(p is not None for p in planes):
+            lab.var(name, ("wavelength", "y", "x"), np.stack([p.reshape(shape) for p in planes]), units=units)
+    return lab
+
+
 def _units(text: str) -> str:
     """The radiance units of a task.toml's or an EXR's `units` text."""
     if text.startswith("absolute") or text.startswith("W m-2"):
@@ -394,8 +411,10 @@ def _read_task_dir(path: Path, job=None):
 def read(path, job=None):
     """Reads any output atmosim writes back as labelled arrays (the names
     and dimensions that :func:`atmosim.render` and
-    :func:`atmosim.transmittance` return): an ``image.exr`` or
-    ``transmittance.exr`` (with its text attributes as attributes), a
+    :func:`atmosim.transmittance` return): an ``image.exr``,
+    ``transmittance.exr`` or ``atmosim eval`` image (``sky_radiance``,
+    ``polarisation``, ``transmittance`` per wavelength, y, x; with its
+    text attributes as attributes), a
     ``radiance.csv``, ``fluxes.csv``, ``sun.csv``, ``noise.csv``,
     ``transmittance.csv``, ``atmosim atmosphere --format csv`` table or
     ``atmosim eval --queries`` answer; a task directory (every file in it,

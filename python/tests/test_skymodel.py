@@ -159,3 +159,20 @@ def test_a_dataset_without_polarisation(tmp_path):
     assert not model.axes["has_polarisation"]
     with pytest.raises(ValueError, match="no polarisation part"):
         model.polarisation([0, 0, 0], [1, 0, 0.2], 10.0, 0.0, 40.0, 0.0, 450.0)
+
+
+def test_an_eval_image_reads_back_as_the_model(dataset, tmp_path):
+    """`atmosim eval`'s fisheye, read back, is the model at its pixels'
+    directions (float32 as stored)."""
+    run_binary("eval", dataset, "--camera", "fisheye", "--resolution", "16", "--elevation", "20",
+               "--visibility", "40", "--albedo", "0.5", "--out", tmp_path)
+    img = atmosim.read(tmp_path / "fisheye.exr")
+    assert img.sky_radiance.dims == ("wavelength", "y", "x")
+    assert list(img.wavelength.values) == [450.0, 550.0]
+    assert set(img.data_vars) == {"sky_radiance", "polarisation", "transmittance"}
+    assert img.attrs["albedo"] == 0.5
+    # The zenith (the centre of the fisheye) and the corner outside it.
+    assert img.sky_radiance.values[1, 0, 0] == 0.0
+    zenith = atmosim.SkyModel(dataset).sky_radiance([0, 0, 0], [0, 0, 1], 20.0, 0.0, 40.0, 0.5, 550.0)
+    centre = img.sky_radiance.values[1, 7:9, 7:9]
+    assert np.all(np.abs(centre / zenith - 1) < 0.1)
