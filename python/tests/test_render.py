@@ -142,3 +142,11 @@ def test_an_output_directory_of_another_job_is_refused(tmp_path):
     with pytest.raises(ValueError, match="overwrite"):
         atmosim.render(other, out=tmp_path, progress=False)
     atmosim.render(other, out=tmp_path, progress=False, overwrite=True)
+
+
+def test_a_progress_bar_with_tqdm(capsys):
+    """progress=True: tqdm's bar (tqdm.auto: a terminal's or a notebook's)."""
+    pytest.importorskip("tqdm")
+    atmosim.render(DIRECTIONS_JOB, progress=True)
+    err = capsys.readouterr().err
+    assert "atmosim render" in err and "100%" in err
