@@ -279,9 +279,27 @@ def _queries_csv(path, header, cols, units):
     return lab
 
 
+# Tables of one row per image: `atmosim fit`'s <out>.fit.csv and
+# `atmosim fit-report`'s images.csv, reference.csv and twin.csv.
+PER_IMAGE = ("images.csv", "reference.csv", "twin.csv")
+
+
+def _per_image_csv(path, header, cols):
+    lab = _Labelled()
+    for k in header:
+        try:
+            values = _floats(cols[k])
+        except ValueError:
+            values = np.array(cols[k])
+        lab.var(k, ("image",), values)
+    return lab
+
+
 def _read_csv(path: Path, units=""):
     header, cols = _csv(path)
     h = ",".join(header)
+    if path.name.endswith(".fit.csv") or path.name in PER_IMAGE:
+        return _per_image_csv(path, header, cols)
     if h == RADIANCE:
         return _radiance_csv(path, header, cols, units)
     if h == FLUX:
@@ -416,8 +434,10 @@ def read(path, job=None):
     ``polarisation``, ``transmittance`` per wavelength, y, x; with its
     text attributes as attributes), a
     ``radiance.csv``, ``fluxes.csv``, ``sun.csv``, ``noise.csv``,
-    ``transmittance.csv``, ``atmosim atmosphere --format csv`` table or
-    ``atmosim eval --queries`` answer; a task directory (every file in it,
+    ``transmittance.csv``, ``atmosim atmosphere --format csv`` table,
+    ``atmosim eval --queries`` answer, ``atmosim fit``'s ``<out>.fit.csv``
+    or ``atmosim fit-report``'s ``images.csv``, ``reference.csv`` and
+    ``twin.csv`` (one row per image along ``image``); a task directory (every file in it,
     with ``task.toml`` as attributes); or an output directory of several
     tasks (stacked along ``task``). With ``job`` (an :class:`atmosim.Job`
     or what makes one) an image gets its pixels' ``view_zenith_deg`` and

@@ -176,3 +176,28 @@ def test_an_eval_image_reads_back_as_the_model(dataset, tmp_path):
     zenith = atmosim.SkyModel(dataset).sky_radiance([0, 0, 0], [0, 0, 1], 20.0, 0.0, 40.0, 0.5, 550.0)
     centre = img.sky_radiance.values[1, 7:9, 7:9]
     assert np.all(np.abs(centre / zenith - 1) < 0.1)
+
+
+def test_the_fit_table_reads_back(dataset):
+    """`atmosim fit`'s <out>.fit.csv: one row per image."""
+    path = dataset.parent / (dataset.name + ".fit.csv")
+    table = atmosim.read(path)
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    assert table.sizes["image"] == len(rows) == 2 * 2 * 2  # elevations × albedos × channels
+    assert list(table.kappa.values) == [float(r["kappa"]) for r in rows]
+    assert list(table.wavelength_nm.values) == [float(r["wavelength_nm"]) for r in rows]
+
+
+def test_the_fit_report_table_reads_back(dataset):
+    """`atmosim fit-report`'s images.csv: one row per image."""
+    run_binary("fit-report", "fit.toml", cwd=dataset.parent)
+    path = dataset.parent / (dataset.name + ".report") / "images.csv"
+    table = atmosim.read(path)
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    assert table.sizes["image"] == len(rows) == 8
+    assert "debiased_snr_db" in rows[0]  # empty without --reference: NaN
+    for name in rows[0]:
+        want = [float(r[name]) if r[name] else np.nan for r in rows]
+        np.testing.assert_array_equal(table[name].values, want, err_msg=name)
