@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _atmosim
-from ._read import read, _Labelled, _finish, _read_task_dir, _stack_tasks
+from ._read import read, _Labelled, _finish, _read_task_dir, _stack_tasks, _transmittance_coords
 
 __all__ = ["Job", "render", "atmosphere", "transmittance", "read", "SkyModel", "__version__"]
 
@@ -242,14 +242,6 @@ def transmittance(job, threads=None):
     if len(parts) == 1:
         return _finish(parts[0])
     return _finish(_stack_tasks(parts, [t[0] for t in tables]))
-
-
-def _transmittance_coords(lab, w, widths, alts, dists):
-    lab.coord("wavelength", ("wavelength",), np.asarray(w, dtype=float), units="nm")
-    if widths is not None:
-        lab.coord("band_width_nm", ("wavelength",), np.asarray(widths, dtype=float), units="nm")
-    lab.coord("altitude", ("altitude",), np.asarray(alts, dtype=float), units="km")
-    lab.coord("distance", ("distance",), np.asarray(dists, dtype=float), units="km")
 
 
 class SkyModel:

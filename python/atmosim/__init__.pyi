@@ -17,18 +17,20 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 import numpy as np
 from numpy.typing import ArrayLike
 
+__all__ = ["Job", "render", "atmosphere", "transmittance", "read", "SkyModel", "__version__"]
+
 __version__: str
 
 # An xarray.Dataset, or without xarray a dict of numpy arrays.
-Result = Any
-JobSource = Union["Job", str, "os.PathLike[str]", Mapping[str, Any]]
+_Result = Any
+_JobSource = Union["Job", str, "os.PathLike[str]", Mapping[str, Any]]
 
 class Job:
     """A validated job: a TOML file path, a TOML string or a dict of the
     same schema. Bad values raise ValueError naming the key and the valid
     range (the binary's exit 2); a missing file FileNotFoundError."""
 
-    def __init__(self, source: JobSource = "", *, dir: Optional[Union[str, "os.PathLike[str]"]] = None) -> None: ...
+    def __init__(self, source: _JobSource = "", *, dir: Optional[Union[str, "os.PathLike[str]"]] = None) -> None: ...
     @property
     def text(self) -> str:
         """The job's TOML text."""
@@ -56,12 +58,12 @@ class Job:
         observer_altitude_km (km)."""
 
 def render(
-    job: JobSource,
+    job: _JobSource,
     threads: Optional[int] = None,
     progress: Union[bool, Callable[[int, int], Any]] = True,
     out: Optional[Union[str, "os.PathLike[str]"]] = None,
     overwrite: bool = False,
-) -> Result:
+) -> _Result:
     """Renders every task of ``job`` as ``atmosim render`` does (the same
     files, bit for bit) and returns them labelled.
 
@@ -75,19 +77,19 @@ def render(
     one per core. Ctrl-C stops within about a second (KeyboardInterrupt);
     the GIL is released while rendering."""
 
-def atmosphere(job: JobSource = "") -> Result:
+def atmosphere(job: _JobSource = "") -> _Result:
     """Per wavelength (nm) and layer (bottom_km, top_km; km): optical depths
     ``tau_rayleigh``, ``tau_ozone``, ``tau_aerosol_ext``, ``tau_aerosol_sca``
     (dimensionless), ``aerosol_g``, ``rayleigh_depolarization``; the
     ``atmosim atmosphere`` table. Default: the built-in default job."""
 
-def transmittance(job: JobSource, threads: Optional[int] = None) -> Result:
+def transmittance(job: _JobSource, threads: Optional[int] = None) -> _Result:
     """``T``, ``T_se``, ``sqrt_T`` (wavelength [nm], altitude [km], distance
     [km]; dimensionless) and ``blocked`` (altitude, distance) on the table's
     nodes, as ``atmosim transmittance`` computes them (full double
     precision). Several tables: a leading ``task`` dimension."""
 
-def read(path: Union[str, "os.PathLike[str]"], job: Optional[JobSource] = None) -> Result:
+def read(path: Union[str, "os.PathLike[str]"], job: Optional[_JobSource] = None) -> _Result:
     """Any output atmosim writes (image.exr, transmittance.exr, radiance.csv,
     fluxes.csv, sun.csv, noise.csv, transmittance.csv, an ``atmosim
     atmosphere --format csv`` table, an ``atmosim eval --queries`` answer,

@@ -91,6 +91,15 @@ def _stack_tasks(parts, names):
 # --- small parsers -------------------------------------------------------
 
 
+def _transmittance_coords(lab, w, widths, alts, dists):
+    """The coordinates of a transmittance table (nm, km)."""
+    lab.coord("wavelength", ("wavelength",), np.asarray(w, dtype=float), units="nm")
+    if widths is not None:
+        lab.coord("band_width_nm", ("wavelength",), np.asarray(widths, dtype=float), units="nm")
+    lab.coord("altitude", ("altitude",), np.asarray(alts, dtype=float), units="km")
+    lab.coord("distance", ("distance",), np.asarray(dists, dtype=float), units="km")
+
+
 def _number(s: str) -> float:
     return float(s) if s.strip() != "" else math.nan
 
@@ -102,7 +111,7 @@ def _csv(path: Path):
     if not lines:
         raise ValueError(f"{path}: empty: no header row")
     header = [h.strip() for h in lines[0].split(",")]
-    cols = {h: [] for h in header}
+    cols: dict = {h: [] for h in header}
     for n, line in enumerate(lines[1:], start=2):
         cells = line.split(",")
         if len(cells) != len(header):
@@ -132,7 +141,7 @@ def _task_toml(path: Path) -> dict:
         with open(path, "rb") as f:
             return tomllib.load(f)
     except ImportError:  # Python < 3.11: the file is flat `key = value` lines
-        out = {}
+        out: dict = {}
         for line in path.read_text().splitlines():
             if not line.strip() or line.startswith("#") or " = " not in line:
                 continue
@@ -248,8 +257,6 @@ def _transmittance_csv(path, header, cols, units):
     if len(cols["T"]) != np.prod(shape):
         raise ValueError(f"{path}: the rows are not a grid of wavelengths × altitudes × distances")
     lab = _Labelled()
-    from . import _transmittance_coords
-
     _transmittance_coords(lab, w, None, alts, dists)
     dims = ("wavelength", "altitude", "distance")
     lab.var("T", dims, _floats(cols["T"]).reshape(shape), units="1")
@@ -328,10 +335,18 @@ def _label(x: float) -> str:
     return s.replace(".", "p")
 
 
+def _planes(channels, names, shape):
+    """The channels `names` as images stacked along a first axis, or None
+    if one is missing."""
+    if not all(n in channels for n in names):
+        return None
+    return np.stack([channels[n].reshape(shape) for n in names])
+
+
 def _read_exr(path: Path, job=None):
-    width, height, channels, attributes = _atmosim.read_exr_file(str(path))
+    width, height, channel_list, attributes = _atmosim.read_exr_file(str(path))
     attrs = {k: _attr_value(v) for k, v in sorted(attributes)}
-    channels = dict(channels)
+    channels = dict(channel_list)
     lab = _Labelled(attrs=attrs)
     shape = (height, width)
     if "blocked" in channels:  # a transmittance table
@@ -339,14 +354,12 @@ def _read_exr(path: Path, job=None):
         alts = [float(x) for x in str(attrs["altitudes_km"]).split()]
         dists = [float(x) for x in str(attrs["distances_km"]).split()]
         widths = [float(x) for x in str(attrs.get("band_width_nm", "")).split()] or None
-        from . import _transmittance_coords
-
         _transmittance_coords(lab, w, widths, alts, dists)
         dims = ("wavelength", "altitude", "distance")
         for suffix, name in [("T", "T"), ("T_se", "T_se"), ("sqrtT", "sqrt_T")]:
-            planes = [channels.get(f"{_label(x)}nm.{suffix}") for x in w]
-            if all(p is not None for p in planes):
-                lab.var(name, dims, np.stack([p.reshape(shape) for p in planes]), units="1")
+            cube = _planes(channels, [f"{_label(x)}nm.{suffix}" for x in w], shape)
+            if cube is not None:
+                lab.var(name, dims, cube, units="1")
         lab.var("blocked", dims[1:], channels["blocked"].reshape(shape), units="1")
         return lab
     if any(name.endswith(".I") and "_a" not in name for name in channels):
@@ -373,9 +386,9 @@ def _read_exr(path: Path, job=None):
         lab.var(name, ("wavelength", "albedo", "stokes", "y", "x"), cube, units=units)
     if "samples" in channels:
         lab.var("samples", ("y", "x"), channels["samples"].reshape(shape), units="1")
-    per = [channels.get(f"{_label(x)}nm.samples") for x in w]
-    if all(p is not None for p in per):
-        lab.var("samples", ("wavelength", "y", "x"), np.stack([p.reshape(shape) for p in per]), units="1")
+    per = _planes(channels, [f"{_label(x)}nm.samples" for x in w], shape)
+    if per is not None:
+        lab.var("samples", ("wavelength", "y", "x"), per, units="1")
     if job is not None:
         zen, az, jw, jh = job._job.pixel_directions()
         if (jw, jh) == (width, height):
@@ -393,9 +406,9 @@ def _eval_image(lab, channels, shape):
     lab.coord("x", ("x",), np.arange(shape[1]), long_name="column, 0 at the left")
     for suffix, name, units in [("I", "sky_radiance", "W m-2 sr-1 nm-1"), ("P", "polarisation", "1"),
                                 ("T", "transmittance", "1")]:
-        planes = [channels.get(f"{l}.{suffix}") for l in labels]
-        if all(p is not None for p in planes):
-            lab.var(name, ("wavelength", "y", "x"), np.stack([p.reshape(shape) for p in planes]), units=units)
+        cube = _planes(channels, [f"{l}.{suffix}" for l in labels], shape)
+        if cube is not None:
+            lab.var(name, ("wavelength", "y", "x"), cube, units=units)
     return lab
 
 

@@ -150,3 +150,30 @@ def test_a_progress_bar_with_tqdm(capsys):
     atmosim.render(DIRECTIONS_JOB, progress=True)
     err = capsys.readouterr().err
     assert "atmosim render" in err and "100%" in err
+
+
+def test_a_progress_line_on_a_terminal_without_tqdm(tmp_path):
+    """Without tqdm, on a terminal: a bar redrawn on stderr."""
+    import os
+    import pty
+    import subprocess
+    import sys
+
+    script = ("import sys; sys.modules['tqdm'] = None\n"  # as if tqdm were not installed
+              "import atmosim\n"
+              f"atmosim.render({DIRECTIONS_JOB!r})\n")
+    main, child = pty.openpty()
+    p = subprocess.Popen([sys.executable, "-c", script], stderr=child, cwd=tmp_path)
+    os.close(child)
+    out = b""
+    while True:
+        try:
+            chunk = os.read(main, 4096)
+        except OSError:  # the child has closed the terminal
+            break
+        if not chunk:
+            break
+        out += chunk
+    assert p.wait(timeout=60) == 0
+    text = out.decode()
+    assert "paths [" in text and "100.0%" in text, text
