@@ -116,25 +116,38 @@ def _job(job) -> Job:
 
 
 def _progress_callback(progress):
-    """What ``render`` calls with (paths done, paths in all)."""
+    """What ``render`` calls with (paths done, paths in all), and what it
+    calls at the end. ``progress=True`` shows a bar in a terminal (on
+    stderr) and in a notebook (tqdm's, where tqdm is installed); in a log
+    or a pipe, nothing."""
     if callable(progress):
         return progress, None
     if not progress:
         return None, None
-    try:  # a bar in terminals and notebooks alike
+    notebook = "ipykernel" in sys.modules
+    if not (notebook or sys.stderr.isatty()):
+        return None, None
+    try:
         from tqdm.auto import tqdm
-
-        bar = tqdm(total=0, unit="paths", unit_scale=True, desc="atmosim render")
+    except ImportError:
+        tqdm = None
+    if tqdm is not None:
+        state = {}
 
         def update(done, total):
+            bar = state.get("bar")
+            if bar is None:  # made once the total is known
+                bar = state["bar"] = tqdm(total=total, unit="paths", unit_scale=True, desc="atmosim render")
             if bar.total != total:
                 bar.total = total
             bar.update(done - bar.n)
 
-        return update, bar.close
-    except ImportError:
-        pass
-    if not sys.stderr.isatty():
+        def close():
+            if "bar" in state:
+                state["bar"].close()
+
+        return update, close
+    if notebook:
         return None, None
     import time
 
@@ -164,8 +177,10 @@ def render(job, threads=None, progress=True, out=None, overwrite=False):
     ``threads``: worker threads (None or 0: one per core). ``progress``:
     True for a progress bar (tqdm's when installed, in terminals and
     notebooks; else a line on a terminal's stderr), False for none, or a
-    callable ``f(done, total)`` in paths. The GIL is released while
-    rendering; Ctrl-C (KeyboardInterrupt) stops within about a second.
+    callable ``f(done, total)`` in paths; nothing is shown where stderr
+    is not a terminal (a log, a pipe) outside a notebook. The GIL is
+    released while rendering; Ctrl-C (KeyboardInterrupt) stops within
+    about a second.
 
     A ``directions`` sensor gives ``radiance`` and ``radiance_se``
     (wavelength, albedo, direction, stokes), ``samples`` and, with fluxes,

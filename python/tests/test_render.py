@@ -144,25 +144,19 @@ def test_an_output_directory_of_another_job_is_refused(tmp_path):
     atmosim.render(other, out=tmp_path, progress=False, overwrite=True)
 
 
-def test_a_progress_bar_with_tqdm(capsys):
-    """progress=True: tqdm's bar (tqdm.auto: a terminal's or a notebook's)."""
-    pytest.importorskip("tqdm")
-    atmosim.render(DIRECTIONS_JOB, progress=True)
-    err = capsys.readouterr().err
-    assert "atmosim render" in err and "100%" in err
-
-
-def test_a_progress_line_on_a_terminal_without_tqdm(tmp_path):
-    """Without tqdm, on a terminal: a bar redrawn on stderr."""
+def on_a_terminal(tmp_path, prelude=""):
+    """stderr of a child that renders with progress=True on a pseudo-terminal."""
+    import fcntl
     import os
     import pty
+    import struct
     import subprocess
     import sys
+    import termios
 
-    script = ("import sys; sys.modules['tqdm'] = None\n"  # as if tqdm were not installed
-              "import atmosim\n"
-              f"atmosim.render({DIRECTIONS_JOB!r})\n")
+    script = prelude + f"import atmosim\natmosim.render({DIRECTIONS_JOB!r})\n"
     main, child = pty.openpty()
+    fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # 24 × 100 characters
     p = subprocess.Popen([sys.executable, "-c", script], stderr=child, cwd=tmp_path)
     os.close(child)
     out = b""
@@ -174,6 +168,25 @@ def test_a_progress_line_on_a_terminal_without_tqdm(tmp_path):
         if not chunk:
             break
         out += chunk
+    os.close(main)
     assert p.wait(timeout=60) == 0
-    text = out.decode()
+    return out.decode()
+
+
+def test_a_progress_bar_with_tqdm(tmp_path):
+    """progress=True on a terminal: tqdm's bar (tqdm.auto: a notebook's in a notebook)."""
+    pytest.importorskip("tqdm")
+    text = on_a_terminal(tmp_path)
+    assert "atmosim render" in text and "100%" in text, text
+
+
+def test_a_progress_line_on_a_terminal_without_tqdm(tmp_path):
+    """Without tqdm, on a terminal: a bar redrawn on stderr."""
+    text = on_a_terminal(tmp_path, "import sys; sys.modules['tqdm'] = None\n")  # as if not installed
     assert "paths [" in text and "100.0%" in text, text
+
+
+def test_no_progress_in_a_log(capfd):
+    """Where stderr is not a terminal (a log, a pipe), progress=True shows nothing."""
+    atmosim.render(DIRECTIONS_JOB, progress=True)
+    assert capfd.readouterr().err == ""
