@@ -717,6 +717,7 @@ fn missing_paths(files: &[(String, String)]) -> Vec<String> {
         "atmospheres/",
         "spectra/",
         ".ci/",
+        "python/",
     ];
     let mut missing = Vec::new();
     for (file, text) in files {

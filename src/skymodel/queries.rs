@@ -85,67 +85,14 @@ pub fn answer(model: &Model, text: &str, name: &str) -> Result<String> {
                     ),
                 )
             })?;
-            let ok = match k {
-                11 => parsed > 0.0 && !parsed.is_nan(),
-                _ => parsed.is_finite(),
-            };
-            if !ok {
-                return Err(Error::data(
-                    name,
-                    format!(
-                        "line {}: `{}` = {}: {}",
-                        line_no + 1,
-                        COLUMNS[k],
-                        cells[i],
-                        if k == 11 {
-                            "must be > 0 (inf for the whole way)"
-                        } else {
-                            "must be finite"
-                        }
-                    ),
-                ));
-            }
             v[k] = parsed;
         }
-        let dir = DVec3::new(v[3], v[4], v[5]);
-        if dir.length() == 0.0 {
-            return Err(Error::data(
-                name,
-                format!("line {}: the direction is the zero vector", line_no + 1),
-            ));
-        }
-        if v[2] < 0.0 {
-            return Err(Error::data(
-                name,
-                format!("line {}: `view_z_m` = {} is below the ground", line_no + 1, v[2]),
-            ));
-        }
-        if !(0.0..=1.0).contains(&v[9]) {
-            return Err(Error::data(
-                name,
-                format!("line {}: `albedo` = {} is outside 0 to 1", line_no + 1, v[9]),
-            ));
-        }
-        if v[8] < 0.0 {
-            return Err(Error::data(
-                name,
-                format!("line {}: `visibility_km` = {} is negative", line_no + 1, v[8]),
-            ));
-        }
+        check(&v).map_err(|message| Error::data(name, format!("line {}: {message}", line_no + 1)))?;
         rows.push((line.to_string(), v));
     }
     let mut out = format!("{},{}\n", header.trim_end(), RESULTS.join(","));
     for (line, v) in rows {
-        let params = Parameters::new(
-            DVec3::new(v[0], v[1], v[2]),
-            DVec3::new(v[3], v[4], v[5]),
-            v[6].to_radians(),
-            v[7].to_radians(),
-            v[8],
-            v[9],
-        );
-        let lambda = v[10];
-        let distance = if v[11].is_infinite() { f64::MAX } else { v[11] };
+        let (params, lambda, distance) = parameters(&v);
         let polarisation = model
             .polarisation(&params, lambda)
             .map_or(String::new(), |p| format!("{p:.9e}"));
@@ -159,4 +106,57 @@ pub fn answer(model: &Model, text: &str, name: &str) -> Result<String> {
         ));
     }
     Ok(out)
+}
+
+/// Checks one query, its values in the order of [`COLUMNS`]: every value
+/// finite (`distance_m` > 0, `inf` for the whole way), the direction not
+/// the zero vector, the view point not below the ground, the albedo in 0
+/// to 1 and the visibility not negative. The message names the column.
+pub fn check(v: &[f64; 12]) -> std::result::Result<(), String> {
+    for (k, &x) in v.iter().enumerate() {
+        let ok = match k {
+            11 => x > 0.0 && !x.is_nan(),
+            _ => x.is_finite(),
+        };
+        if !ok {
+            return Err(format!(
+                "`{}` = {x}: {}",
+                COLUMNS[k],
+                if k == 11 {
+                    "must be > 0 (inf for the whole way)"
+                } else {
+                    "must be finite"
+                }
+            ));
+        }
+    }
+    if DVec3::new(v[3], v[4], v[5]).length() == 0.0 {
+        return Err("the direction is the zero vector".into());
+    }
+    if v[2] < 0.0 {
+        return Err(format!("`view_z_m` = {} is below the ground", v[2]));
+    }
+    if !(0.0..=1.0).contains(&v[9]) {
+        return Err(format!("`albedo` = {} is outside 0 to 1", v[9]));
+    }
+    if v[8] < 0.0 {
+        return Err(format!("`visibility_km` = {} is negative", v[8]));
+    }
+    Ok(())
+}
+
+/// The runtime's arguments of one query that passed [`check`] (values in
+/// the order of [`COLUMNS`]): its parameters, the wavelength (nm) and the
+/// distance for the transmittance (m; `inf`, the whole way, as `f64::MAX`).
+pub fn parameters(v: &[f64; 12]) -> (Parameters, f64, f64) {
+    let params = Parameters::new(
+        DVec3::new(v[0], v[1], v[2]),
+        DVec3::new(v[3], v[4], v[5]),
+        v[6].to_radians(),
+        v[7].to_radians(),
+        v[8],
+        v[9],
+    );
+    let distance = if v[11].is_infinite() { f64::MAX } else { v[11] };
+    (params, v[10], distance)
 }
