@@ -124,7 +124,7 @@ fn bench_grid_quick_reports_its_tasks_and_ends_with_the_core_hours_line() {
     }
     assert!(
         text.starts_with(
-            "grid benchmark: 3 tasks, 64x32 full-sphere images to the grid job's noise target, 0.05 per image"
+            "grid benchmark: 3 tasks, 64x32 full-sphere images to the grid job's noise target, 0.02 per image"
         ),
         "{text}"
     );

@@ -200,7 +200,10 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
         if let Some(t) = t {
             if t.points == 0 {
                 // The fit's own measure (no points of a check table).
-                println!("transmittance max |ΔT| {what} the nodes {:.2e} ({})", t.max_abs, t.worst_at);
+                println!(
+                    "transmittance max |ΔT| {what} the nodes {:.2e} ({})",
+                    t.max_abs, t.worst_at
+                );
             } else {
                 println!(
                     "transmittance max |ΔT| {what} the nodes {:.2e} ({} points; largest at {})",
