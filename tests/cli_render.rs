@@ -432,3 +432,57 @@ fn absolute_units_scale_the_directions_outputs_by_the_irradiance() {
         }
     }
 }
+
+#[test]
+fn bench_suite_reports_every_case_and_direction() {
+    // Not timed: that the suite runs, and each direction of each case has
+    // a positive, finite figure of merit for I and Q.
+    let out = atmosim()
+        .args(["bench", "--suite", "--quick", "--threads", "1"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(text.lines().last(), Some("suite_cases: 7"));
+    let cases: Vec<&str> = text.lines().filter(|l| l.starts_with("case ")).collect();
+    assert_eq!(cases.len(), 7, "{text}");
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // 16 + 15 + 14 + 12 + 12 + 12 + 14 directions.
+    assert_eq!(rows.len(), 95);
+    for r in &rows {
+        assert!(
+            r[2].is_finite() && r[2] > 0.0 && r[3].is_finite() && r[3] > 0.0,
+            "{r:?}"
+        );
+    }
+}
+
+#[test]
+fn bench_suite_writes_job_files_that_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = atmosim()
+        .args(["bench", "--suite", "--quick", "--write-jobs"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let job = dir.path().join("fine_profile.toml");
+    let out = atmosim()
+        .arg("render")
+        .arg(&job)
+        .args(["--stdout", "--threads", "1", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 13);
+    let bad = atmosim()
+        .args(["bench", "--suite", "--quick", "--case", "nope"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("fine_profile"));
+}

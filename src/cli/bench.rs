@@ -27,6 +27,21 @@ pub struct BenchArgs {
     /// last line is `grid_core_hours_per_task: <mean> <max>`.
     #[arg(long, conflicts_with = "ratios")]
     grid: bool,
+    /// Instead, the figure-of-merit suite: seven single-direction cases
+    /// (day, low sun with its aureole, twilight, from 15 km, 11 bands × 4
+    /// albedos, a 1000-level profile, Mie aerosol), per direction the FOM
+    /// of I and Q, 1 / (relative variance × core-seconds); the last line
+    /// is `suite_cases: <count>` (docs/performance.md).
+    #[arg(long, conflicts_with_all = ["ratios", "grid"])]
+    suite: bool,
+    /// With --suite: only this case (repeat for several).
+    #[arg(long = "case", value_name = "NAME", requires = "suite")]
+    cases: Vec<String>,
+    /// With --suite: write the cases' job files (and the 1000-level
+    /// profile they read) into DIR and render nothing, to pair two builds
+    /// on them with scripts/bench_pair.py.
+    #[arg(long, value_name = "DIR", requires = "suite")]
+    write_jobs: Option<std::path::PathBuf>,
     /// With --grid: render every task with this many samples per pixel
     /// instead of to the noise target (priced the same way).
     #[arg(long, requires = "grid", value_parser = clap::value_parser!(u64).range(2..=1_048_576))]
@@ -54,12 +69,28 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         threads,
         ratios,
         grid,
+        suite,
+        cases,
+        write_jobs,
         samples: fixed,
         per_pixel,
         tasks,
         seed,
     } = args;
+    if let Some(dir) = write_jobs {
+        let written = atmosim::run::bench_suite::write_jobs(&dir, quick)?;
+        println!("wrote {} job files to {}", written.len(), dir.display());
+        return Ok(());
+    }
     let pool = thread_pool(threads)?;
+    if suite {
+        let dir = std::env::temp_dir().join(format!("atmosim-suite-{}", std::process::id()));
+        let mut out = std::io::stdout();
+        let result = pool.install(|| atmosim::run::bench_suite::run(&dir, quick, &cases, &mut out));
+        let _ = std::fs::remove_dir_all(&dir);
+        result?;
+        return Ok(());
+    }
     if grid {
         // Unlocked: each task's line appears when it is done.
         let mut out = std::io::stdout();

@@ -4,6 +4,7 @@
 pub mod allocation;
 pub mod assemble;
 pub mod bench;
+pub mod bench_suite;
 pub mod checkpoint;
 pub mod grid_bench;
 pub mod layout;
