@@ -22,7 +22,16 @@ and with --detail every direction; --json writes all of it.
     python3 scripts/bench_pair.py --jobs /tmp/suite \
         --a target/release/atmosim --b /path/to/old/atmosim --rounds 5
 
-Standard library only.
+With --cost instructions the cost is not CPU time but the instructions
+each build executes for the case, counted by valgrind's callgrind (the
+same count whatever else the machine runs: for a shared, noisy machine).
+Each build renders each case twice under callgrind, at 1/40 and 1/20 of
+its paths (seed 1); the count is extrapolated linearly to the full paths
+(the scene's build is the intercept). Variances still come from the
+native rounds. Instructions are not cycles (cache misses and divisions
+cost more than one), so quote both.
+
+Standard library only (and valgrind for --cost instructions).
 """
 
 import argparse
@@ -70,13 +79,51 @@ def run_case(binary, job_path, threads):
     return rows, usage.ru_utime + usage.ru_stime, wall
 
 
+def with_samples(text, fraction):
+    """The job text with render.samples scaled by `fraction`."""
+    def scale(m):
+        return f"samples = {max(2, int(int(m.group(1)) * fraction))}"
+    return re.sub(r"^samples\s*=\s*(\d+)", scale, text, flags=re.M)
+
+
+def instructions(binary, folder, case, seed):
+    """Instructions of `binary` rendering `case` at its full paths,
+    extrapolated from callgrind counts at 1/40 and 1/20 of them."""
+    text = with_seed(open(os.path.join(folder, case + ".toml")).read(), seed)
+    counts = []
+    for fraction in (1 / 40, 1 / 20):
+        path = os.path.join(folder, f".cg_{case}.toml")
+        out = os.path.join(folder, f".cg_{case}.out")
+        with open(path, "w") as fh:
+            fh.write(with_samples(text, fraction))
+        # Children traced (a build may be a wrapper script that execs
+        # the binary): every process's count summed.
+        subprocess.run(["valgrind", "--tool=callgrind", "--trace-children=yes",
+                        f"--callgrind-out-file={out}.%p", binary,
+                        "render", path, "--stdout", "--threads", "1", "-q"],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                       cwd=folder)
+        total = 0
+        for name in os.listdir(folder):
+            if name.startswith(os.path.basename(out) + "."):
+                with open(os.path.join(folder, name)) as fh:
+                    total += next((int(l.split()[1]) for l in fh if l.startswith("summary:")), 0)
+                os.remove(os.path.join(folder, name))
+        counts.append((fraction, total))
+        os.remove(path)
+    (f1, c1), (f2, c2) = counts
+    slope = (c2 - c1) / (f2 - f1)
+    return c1 + slope * (1.0 - f1)
+
+
 def direction_key(row):
     return (float(row["view_zenith_deg"]), float(row["azimuth_deg"]))
 
 
-def fom_table(runs):
-    """Per direction: (FOM_I, FOM_Q), worst channel, from a build's rounds."""
-    cpu = statistics.median(r[1] for r in runs)
+def fom_table(runs, cost=None):
+    """Per direction: (FOM_I, FOM_Q), worst channel, from a build's rounds
+    (cost: the median CPU seconds, or the given cost)."""
+    cpu = statistics.median(r[1] for r in runs) if cost is None else cost
     rel = {}
     for rows, _, _ in runs:
         for row in rows:
@@ -112,6 +159,8 @@ def main():
     ap.add_argument("--cases", nargs="*", help="only these cases (file stems)")
     ap.add_argument("--detail", action="store_true", help="print every direction")
     ap.add_argument("--json", help="write the figures here")
+    ap.add_argument("--cost", choices=["cpu", "instructions"], default="cpu",
+                    help="the cost in the FOM: CPU seconds (default) or instructions (callgrind)")
     args = ap.parse_args()
 
     args.jobs = os.path.abspath(args.jobs)
@@ -141,13 +190,21 @@ def main():
                 print(f"round {r + 1}/{args.rounds} {case}: "
                       + ", ".join(f"{b} {runs[(case, b)][-1][1]:.2f} s" for b in order),
                       file=sys.stderr)
+    cost = {}
+    if args.cost == "instructions":
+        for case in jobs:
+            for b, folder in (("A", args.jobs), ("B", jobs_b)):
+                cost[(case, b)] = instructions(builds[b], folder, case, 1) / 1e9
+                print(f"{case} {b}: {cost[(case, b)]:.2f} G instructions", file=sys.stderr)
+    unit = "G instructions" if args.cost == "instructions" else "CPU s"
     result = {"a": builds["A"], "b": builds["B"], "rounds": args.rounds, "cases": {}}
     every_i, every_q = [], []
     print(f"# FOM ratio A / B per direction (A = {args.a}, B = {args.b}, {args.rounds} rounds)")
-    print("case, CPU s A, CPU s B, I median, I min, Q median, Q min")
+    unit = "G instructions" if args.cost == "instructions" else "CPU s"
+    print(f"case, {unit} A, {unit} B, I median, I min, Q median, Q min")
     for case in jobs:
-        ta, ca = fom_table(runs[(case, "A")])
-        tb, cb = fom_table(runs[(case, "B")])
+        ta, ca = fom_table(runs[(case, "A")], cost.get((case, "A")))
+        tb, cb = fom_table(runs[(case, "B")], cost.get((case, "B")))
         ratios = {k: (ta[k][0] / tb[k][0], ta[k][1] / tb[k][1]) for k in ta if k in tb}
         ri = [v[0] for v in ratios.values()]
         rq = [v[1] for v in ratios.values() if v[1] == v[1] and v[1] not in (0.0, float("inf"))]
@@ -160,7 +217,7 @@ def main():
                 print(f"  {case} vza {k[0]:g} az {k[1]:g}: I {ratios[k][0]:.3f}  Q {ratios[k][1]:.3f}"
                       f"  (FOM_I A {ta[k][0]:.4g}, B {tb[k][0]:.4g})")
         result["cases"][case] = {
-            "cpu_a": ca, "cpu_b": cb,
+            "cost_unit": unit, "cost_a": ca, "cost_b": cb,
             "directions": [{"view_zenith_deg": k[0], "azimuth_deg": k[1],
                             "fom_i_a": ta[k][0], "fom_i_b": tb[k][0],
                             "fom_q_a": ta[k][1], "fom_q_b": tb[k][1]} for k in sorted(ratios)],

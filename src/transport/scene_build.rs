@@ -2,7 +2,11 @@
 //! task's paths carry, with the job's albedos, medium and settings. (An
 //! inherent `impl Job` here, so the job itself knows nothing of transport.)
 
-use crate::job::options::{AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups, SunSampling};
+use crate::geometry::shell::Geometry;
+use crate::job::options::{
+    AUTO_GROUPS_MIN_SPREAD, DAY_ROULETTE_MAX_COLUMN, DAY_ROULETTE_MIN_ELEVATION_DEG, DAY_ROULETTE_THRESHOLD,
+    MediumModel, SpectralGroups, SunSampling,
+};
 use crate::job::spectrum::Channel;
 use crate::job::{Job, Task};
 use crate::transport::tracer::{MediumSettings, Scene, sun_peak_serves};
@@ -97,7 +101,12 @@ impl Job {
             && r.settings.forced_collisions
             && medium.shapes.is_none()
             && r.majorant_scale == 1.0;
-        let scene = Scene::new(
+        let view_sun_aware_allowed = r.settings.sun_sampling == SunSampling::Auto
+            && r.settings.forced_collisions
+            && medium.shapes.is_none()
+            && r.majorant_scale == 1.0
+            && matches!(self.geometry(), Geometry::Spherical { .. });
+        let mut scene = Scene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
             task.atmosphere.terms.clone(),
@@ -107,14 +116,33 @@ impl Job {
             r.settings,
             medium,
         );
+        // The roulette threshold by regime where the job left it (measured
+        // on `bench --suite`, docs/performance.md): by day over thin
+        // columns from 0.1 (`DAY_ROULETTE_THRESHOLD`).
+        if !r.given.roulette_threshold
+            && 90.0 - task.sun.zenith_deg >= DAY_ROULETTE_MIN_ELEVATION_DEG
+            && scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN
+        {
+            scene.settings.roulette_threshold = DAY_ROULETTE_THRESHOLD;
+        }
         // With `auto`, a sun low but up whose connections are at collisions
         // gets scattering directions drawn in part about it (`sun_peak`).
         let sun_peak =
             !sun_aware && r.settings.sun_sampling == SunSampling::Auto && sun_peak_serves(task.sun.zenith_deg);
+        // By day, with `auto`, over columns thin enough that one
+        // wavelength's density serves (`DAY_ROULETTE_MAX_COLUMN`), views
+        // near the sun connect along their own flight
+        // (`Scene::with_sun_aware_view`).
+        let view_sun_aware =
+            view_sun_aware_allowed && !sun_aware && scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN;
         let scene = if sun_aware {
             scene.with_sun_aware()
+        } else if view_sun_aware && sun_peak {
+            scene.with_sun_aware_view().with_sun_peak()
         } else if sun_peak {
             scene.with_sun_peak()
+        } else if view_sun_aware {
+            scene.with_sun_aware_view()
         } else {
             scene
         };

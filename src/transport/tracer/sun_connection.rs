@@ -15,7 +15,7 @@ use crate::transport::free_flight::FlightEnd;
 use super::path::{PIECE_SEGMENTS, Path, SunFollow};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
+use super::vertex::{INV_4PI, SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, scattering_frame, sun_ray};
 
 impl Scene {
     /// A sun connection from the point at distance `t` in segment `i` of
@@ -135,16 +135,26 @@ impl Scene {
         let Some(follow) = &self.sun_follow else {
             return false;
         };
+        if follow.view_only && !(path.order == 0 && path.view_sun_aware) {
+            return false;
+        }
         if !self.flight_segments(path, ray) {
             return false;
         }
         if path.segments.is_empty() {
             return true;
         }
-        if !self.build_sun_density(follow, path, ray) {
+        // The sensor's own flight with a density exact per segment and
+        // little defence; the scattered flights' coarser and more defensive.
+        let (share, pieces) = if path.order == 0 {
+            (VIEW_SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS)
+        } else {
+            (SUN_AWARE_SHARE, PIECE_SEGMENTS)
+        };
+        if !self.build_sun_density(follow, path, ray, pieces) {
             return true;
         }
-        let Some(point) = path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler) else {
+        let Some(point) = path.density.sample(&path.segments, share, sampler) else {
             return true;
         };
         self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
@@ -155,7 +165,7 @@ impl Scene {
     /// segments in `path.segments`) into `path.density`
     /// ([`FlightDensity`](crate::transport::flight_density::FlightDensity));
     /// whether any followed channel can be drawn from.
-    pub(super) fn build_sun_density(&self, follow: &SunFollow, path: &mut Path, ray: &Ray) -> bool {
+    pub(super) fn build_sun_density(&self, follow: &SunFollow, path: &mut Path, ray: &Ray, pieces: usize) -> bool {
         let depth = &follow.depth;
         let nk = follow.channels.len();
         let s0 = self.sun.direction;
@@ -197,8 +207,7 @@ impl Scene {
             }
             o
         };
-        path.density
-            .build(ray, &path.segments, nk, PIECE_SEGMENTS, optics, depth, s0)
+        path.density.build(ray, &path.segments, nk, pieces, optics, depth, s0)
     }
 
     /// Whether a sun-aware connection along the flight along `ray` to `end`
