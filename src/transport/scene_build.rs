@@ -94,17 +94,15 @@ impl Job {
             majorant_scale: r.majorant_scale,
             pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
         };
-        let sun_aware = r
-            .settings
-            .sun_sampling
-            .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport())
-            && r.settings.forced_collisions
-            && medium.shapes.is_none()
-            && r.majorant_scale == 1.0;
-        let view_sun_aware_allowed = r.settings.sun_sampling == SunSampling::Auto
-            && r.settings.forced_collisions
-            && medium.shapes.is_none()
-            && r.majorant_scale == 1.0
+        // Sun-aware connections need forced flights through a layered
+        // medium tracked at its own majorants.
+        let sun_aware_possible = r.settings.forced_collisions && medium.shapes.is_none() && r.majorant_scale == 1.0;
+        let sun_aware = sun_aware_possible
+            && r.settings
+                .sun_sampling
+                .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport());
+        let view_sun_aware_possible = sun_aware_possible
+            && r.settings.sun_sampling == SunSampling::Auto
             && matches!(self.geometry(), Geometry::Spherical { .. });
         let mut scene = Scene::new(
             self.geometry(),
@@ -119,10 +117,8 @@ impl Job {
         // The roulette threshold by regime where the job left it (measured
         // on `bench --suite`, docs/performance.md): by day over thin
         // columns from 0.1 (`DAY_ROULETTE_THRESHOLD`).
-        if !r.given.roulette_threshold
-            && 90.0 - task.sun.zenith_deg >= DAY_ROULETTE_MIN_ELEVATION_DEG
-            && scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN
-        {
+        let thin = scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN;
+        if !r.given.roulette_threshold && 90.0 - task.sun.zenith_deg >= DAY_ROULETTE_MIN_ELEVATION_DEG && thin {
             scene.settings.roulette_threshold = DAY_ROULETTE_THRESHOLD;
         }
         // With `auto`, a sun low but up whose connections are at collisions
@@ -133,8 +129,7 @@ impl Job {
         // wavelength's density serves (`DAY_ROULETTE_MAX_COLUMN`), views
         // near the sun connect along their own flight
         // (`Scene::with_sun_aware_view`).
-        let view_sun_aware =
-            view_sun_aware_allowed && !sun_aware && scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN;
+        let view_sun_aware = view_sun_aware_possible && !sun_aware && thin;
         let scene = if sun_aware {
             scene.with_sun_aware()
         } else if view_sun_aware && sun_peak {
