@@ -131,6 +131,13 @@ pub(super) struct SunFollow {
     /// the sun ([`Path::view_sun_aware`]) connects along the flight; every
     /// other flight connects at its collision (`Scene::with_sun_aware_view`).
     pub(super) view_only: bool,
+    /// The view's own flight's density: the sun part's share and the most
+    /// segments in a piece (spherical geometry: [`VIEW_SUN_AWARE_SHARE`]
+    /// and [`VIEW_PIECE_SEGMENTS`]; else those of every flight).
+    ///
+    /// [`VIEW_SUN_AWARE_SHARE`]: super::vertex::VIEW_SUN_AWARE_SHARE
+    /// [`VIEW_PIECE_SEGMENTS`]: super::vertex::VIEW_PIECE_SEGMENTS
+    pub(super) view_density: (f64, usize),
 }
 
 /// The scattering angles of [`SunFollow::aerosol_p11`]: every 0.25°.

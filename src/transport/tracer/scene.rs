@@ -27,7 +27,7 @@ use super::sun_lobe::{
 };
 use super::sun_peak::SunPeak;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
-use super::vertex::reflects;
+use super::vertex::{SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, reflects};
 
 /// Views within this angle (°) of the sun connect along their own flight
 /// by day (`Scene::with_sun_aware_view`). Paired on `bench --suite` with
@@ -377,6 +377,14 @@ impl Scene {
             max_column: centre[n - 1].0,
             aerosol_p11,
             view_only: false,
+            // Measured in spherical geometry; plane-parallel scenes keep
+            // every flight's density for the view too (docs/design-sun.md,
+            // "The view's own flight": with it, libRadtran B's sun
+            // direction shows a difference from DISORT not yet settled).
+            view_density: match self.geometry {
+                Geometry::Spherical { .. } => (VIEW_SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS),
+                _ => (SUN_AWARE_SHARE, PIECE_SEGMENTS),
+            },
         });
         self.sun_lobes = self.build_sun_lobes();
         self

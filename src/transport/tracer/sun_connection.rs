@@ -15,7 +15,7 @@ use crate::transport::free_flight::FlightEnd;
 use super::path::{PIECE_SEGMENTS, Path, SunFollow};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
-use super::vertex::{INV_4PI, SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, scattering_frame, sun_ray};
+use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
 
 impl Scene {
     /// A sun connection from the point at distance `t` in segment `i` of
@@ -147,7 +147,7 @@ impl Scene {
         // The sensor's own flight with a density exact per segment and
         // little defence; the scattered flights' coarser and more defensive.
         let (share, pieces) = if path.order == 0 {
-            (VIEW_SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS)
+            follow.view_density
         } else {
             (SUN_AWARE_SHARE, PIECE_SEGMENTS)
         };

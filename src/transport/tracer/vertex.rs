@@ -76,7 +76,8 @@ pub(crate) fn phase_mixture(c: &PointOptics) -> PhaseMixture {
 pub(crate) const SUN_AWARE_SHARE: f64 = 0.8;
 
 /// The sun part's share α of the sun-aware density along the sensor's own
-/// flight (the view ray, scattering order 0), whose single scattering is
+/// flight in spherical geometry (the view ray, scattering order 0; plane-
+/// parallel scenes keep [`SUN_AWARE_SHARE`]), whose single scattering is
 /// the bulk of the sky near the sun and at twilight's zenith: there the
 /// density is built exact per layer segment ([`VIEW_PIECE_SEGMENTS`]) and
 /// the flight part only guards the table's errors (weights at most 100
