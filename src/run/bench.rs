@@ -336,6 +336,6 @@ fn fine_profile_ratios(samples: u64, (t_one, coarse): (f64, &[Tally]), out: &mut
 }
 
 /// A failed write of the report.
-fn io(e: io::Error) -> crate::error::Error {
+pub(super) fn io(e: io::Error) -> crate::error::Error {
     crate::error::Error::io("stdout", e)
 }

@@ -15,13 +15,15 @@
 //! use only keys that builds since 2026-11-20 read.
 
 use std::fmt::Write as _;
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 use crate::error::{Error, Result};
 use crate::job::Job;
 use crate::physics::profile::GasProfile;
+
+use super::bench::io;
 
 /// One case of the suite: a name (the job file's stem), what it stands
 /// for, and its job text.
@@ -263,10 +265,6 @@ fn median(mut v: Vec<f64>) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
-}
-
-fn io(e: io::Error) -> Error {
-    Error::io(Path::new("<stdout>"), e)
 }
 
 /// Runs every case whose name is in `only` (all if empty) from the job
