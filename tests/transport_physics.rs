@@ -532,3 +532,67 @@ fn analog_flights_agree_with_forced_flights_on_the_throughput_case() {
     cmp.add_tallies("analog vs forced", &analog, &forced);
     cmp.assert_no_outlier("analog vs forced flights");
 }
+
+#[test]
+fn a_medium_that_only_absorbs_over_a_white_ground_gives_the_closed_form() {
+    // One layer of absorption optical depth τ that scatters nowhere, over a
+    // white Lambertian ground, sun at 30°: seen from the top, the ground's
+    // radiance is μ0/π · e^(−τ/μ0) · e^(−τ/μ). Forced flights reach that
+    // with no variance (the ground branch carries e^(−τ) exactly, the
+    // collided branch nothing); analog flights within 4.5 standard errors.
+    // Until 2026-11-29 a collision in such a medium drew a direction from a
+    // phase mixture with no component: a NaN weight that the roulette
+    // never ended (the render hung with forced flights; analog ones
+    // dropped those paths and read 0.585× at τ 0.5).
+    let mu0 = 30f64.to_radians().cos();
+    let dirs = directions(&[(180.0, 0.0), (150.0, 0.0), (120.0, 90.0)]);
+    for tau in [0.1, 1.0] {
+        for (keys, seed) in [("", 3), ("forced_collisions = false\n", 4)] {
+            let text = format!(
+                "{}[ground]\nalbedo = 1.0\n[sun]\nzenith_deg = 30.0\n[render]\npolarized = false\n{keys}",
+                layers_toml(&[(0.0, 10.0, 0.0, tau)], 0.0)
+            );
+            let j = job(&text);
+            let tallies = render_directions(&j.scene(0), 10.0, &dirs, 20_000, seed, Render::channel(0, 0));
+            for (d, t) in dirs.iter().zip(&tallies) {
+                let mu = -d.view_zenith_deg.to_radians().cos();
+                let want = mu0 / std::f64::consts::PI * (-tau / mu0).exp() * (-tau / mu).exp();
+                let (got, se) = (t.mean()[0], t.standard_error()[0]);
+                assert_eq!(t.non_finite, 0, "τ {tau} {keys:?}");
+                let tol = if keys.is_empty() { 1e-12 * want } else { 4.5 * se };
+                assert!(
+                    (got - want).abs() <= tol,
+                    "τ {tau}, {keys:?}view zenith {}: {got} ± {se} against {want}",
+                    d.view_zenith_deg
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn layers_that_only_absorb_leave_every_sample_finite_in_twilight() {
+    // Sun-aware connections at twilight (spherical shells, sun 2° below the
+    // horizon) through a scattering layer under one that only absorbs, and
+    // forced flights up through the absorbing layer alone (from 12 km):
+    // every path ends, none with a non-finite value; the sky is lit where a
+    // view crosses the scattering layer and black where it does not.
+    let text = "[[atmosphere.layers]]\nbottom_km = 0.0\ntop_km = 10.0\ntau_rayleigh = 0.1\n\
+                [[atmosphere.layers]]\nbottom_km = 10.0\ntop_km = 40.0\ntau_absorption = 0.05\n\
+                [ground]\nalbedo = 0.5\n[sun]\nzenith_deg = 92.0\n";
+    let j = job(text);
+    let dirs = directions(&[(0.0, 0.0), (80.0, 0.0), (95.0, 90.0), (120.0, 180.0)]);
+    for altitude in [0.0, 12.0] {
+        let tallies = render_directions(&j.scene(0), altitude, &dirs, 5_000, 7, Render::channel(0, 0));
+        for (d, t) in dirs.iter().zip(&tallies) {
+            assert_eq!(t.non_finite, 0, "{altitude} km, view zenith {}", d.view_zenith_deg);
+            let lit = altitude == 0.0 || d.view_zenith_deg > 90.0;
+            assert_eq!(
+                t.mean()[0] > 0.0,
+                lit,
+                "{altitude} km, view zenith {}",
+                d.view_zenith_deg
+            );
+        }
+    }
+}

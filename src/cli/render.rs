@@ -294,6 +294,9 @@ fn render_units(
             paths as f64 / secs.max(1e-9),
             pool.current_num_threads()
         );
+        if let Some(warning) = state.non_finite_warning(layout, &task.name) {
+            progress.println(&warning);
+        }
         if shard.is_whole() {
             let info = RunInfo { shards: 1 };
             let note =

@@ -611,6 +611,19 @@ impl UnitState {
             .sum()
     }
 
+    /// A warning when some paths gave a non-finite value: they are left
+    /// out of the sums, so the estimate is biased by them (a defect of the
+    /// tracer, never expected).
+    pub fn non_finite_warning(&self, layout: &Layout, task: &str) -> Option<String> {
+        let n = self.non_finite(layout);
+        (n > 0).then(|| {
+            format!(
+                "warning: {task}: {n} paths gave a non-finite value and are left out of the sums; \
+                 the estimate is biased by them (please report the job file)"
+            )
+        })
+    }
+
     /// Adds another shard's sums (same task and layout) to these; a pilot,
     /// which every shard traces whole, is kept once.
     pub fn add(&mut self, other: &UnitState, layout: &Layout) {

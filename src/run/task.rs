@@ -43,6 +43,9 @@ pub fn render_whole(
         paths as f64 / secs,
         rayon::current_num_threads()
     ));
+    if let Some(warning) = state.non_finite_warning(&layout, &task.name) {
+        log(&warning);
+    }
     Ok((layout, state))
 }
 

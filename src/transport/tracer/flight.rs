@@ -199,6 +199,7 @@ impl Scene {
         let inv_hero = 1.0 / density(self.sigma_t_point(spectra, layer, hero, f), path.forced[hero]);
         let tau_hero = path.tau_hit[hero];
         path.mixtures.clear();
+        let mut scatters = false;
         for w in 0..n {
             let c = self.coefficients(spectra, profile_layer, w, f);
             path.mixtures.push(self.phase_mixture(spectra, profile_layer, w, &c));
@@ -214,8 +215,15 @@ impl Scene {
             };
             let k = density(sigma_t, path.forced[w]) * transmittance * inv_hero;
             let integrand = c.sigma_s() * transmittance * path.residual_to(t, w);
+            scatters |= integrand > 0.0;
             path.throughput[w] = path.throughput[w] * (integrand * inv_hero);
             path.scale_density(w, k);
+        }
+        // Where no channel scatters (a medium that only absorbs there) the
+        // path ends: it carries nothing further, and its phase mixture,
+        // with no component, has no direction to draw.
+        if !scatters {
+            return Outcome::Absorbed;
         }
         path.densities_changed();
         Outcome::Collided { t, layer }

@@ -277,8 +277,14 @@ impl Path {
         let threshold = self.roulette_threshold;
         let mean = self.throughput.iter().map(|t| t.0[0][0]).sum::<f64>() / self.throughput.len() as f64;
         let w = mean * self.inv_mean_density;
+        // A NaN weight ends the path too: one that cannot be weighed must
+        // not fly on forever.
+        debug_assert!(!w.is_nan(), "NaN path weight at order {}", self.order);
+        if w.is_nan() || w <= 0.0 {
+            return false;
+        }
         if self.order < 2 || w >= threshold {
-            return w > 0.0;
+            return true;
         }
         let q = w / threshold;
         if sampler.next_f64() >= q {
@@ -337,6 +343,8 @@ pub(super) enum Outcome {
         t: f64,
     },
     Escaped,
+    /// A collision where no channel scatters: the path ends there.
+    Absorbed,
 }
 
 #[cfg(test)]

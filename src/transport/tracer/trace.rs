@@ -137,7 +137,7 @@ impl Scene {
                 std::mem::swap(&mut path.radiance, &mut branch.radiance);
             }
             match self.flight(path, spectra, &ray, end, forced_flight, sampler) {
-                Outcome::Escaped => return,
+                Outcome::Escaped | Outcome::Absorbed => return,
                 Outcome::Ground { t } => {
                     let x = ray.origin + t * ray.dir;
                     if !self.ground(path, spectra, x, sampler) {
