@@ -11,8 +11,8 @@
 
 use std::sync::Arc;
 
-use crate::atmosphere::BuildError;
 use crate::atmosphere::spectral_terms::{GasResponse, SpectralTerms, Spectrum};
+use crate::error::{Error, Result};
 use crate::physics::data;
 use crate::physics::gas_columns::{self, o4_column_cm5, scaled_column_cm2};
 use crate::physics::kdistribution::{self, CollisionPairs, Gas, KDistributions};
@@ -56,24 +56,18 @@ impl GasSpec {
 
     /// Scales the profile's water and CO₂ as asked; the precipitable water
     /// and CO₂ mixing ratio it then has (for reports).
-    pub fn scale(&self, profile: &mut GasProfile) -> std::result::Result<(f64, f64), BuildError> {
+    pub fn scale(&self, profile: &mut GasProfile) -> Result<(f64, f64)> {
         if let Some(target) = self.precipitable_water_cm {
             let pw = gas_columns::precipitable_water_cm(profile);
             if pw <= 0.0 && target > 0.0 {
-                return Err(BuildError::Data(format!(
-                    "the profile `{}` holds no water vapour to scale",
-                    profile.name
-                )));
+                return Err(Error::data(&profile.name, "the profile holds no water vapour to scale"));
             }
             gas_columns::scale_h2o(profile, if pw > 0.0 { target / pw } else { 0.0 });
         }
         if let Some(target) = self.co2_ppm {
             let ppm = gas_columns::co2_ppm(profile);
             if ppm <= 0.0 && target > 0.0 {
-                return Err(BuildError::Data(format!(
-                    "the profile `{}` holds no CO₂ to scale",
-                    profile.name
-                )));
+                return Err(Error::data(&profile.name, "the profile holds no CO₂ to scale"));
             }
             gas_columns::scale_co2(profile, if ppm > 0.0 { target / ppm } else { 0.0 });
         }
@@ -84,12 +78,11 @@ impl GasSpec {
     }
 
     /// Adds the terms of the gases that are on to `terms`.
-    pub fn push_terms(&self, profile: &GasProfile, terms: &mut SpectralTerms) -> std::result::Result<(), BuildError> {
+    pub fn push_terms(&self, profile: &GasProfile, terms: &mut SpectralTerms) -> Result<()> {
         if !self.any() {
             return Ok(());
         }
-        let data_error = |e: crate::error::Error| BuildError::Data(e.to_string());
-        let table = KDistributions::builtin().map_err(data_error)?;
+        let table = KDistributions::builtin()?;
         let layers = 0..profile.layer_count();
         let per_km = |i: usize| 1.0 / (profile.levels[i + 1].z_km - profile.levels[i].z_km);
         let (lo, hi) = self.range_nm;
@@ -99,7 +92,7 @@ impl GasSpec {
                 Gas::O4 if !overlaps(O4_RANGE_NM) => {}
                 Gas::No2 if !overlaps(NO2_RANGE_NM) => {}
                 Gas::O4 => {
-                    let pairs = CollisionPairs::builtin().map_err(data_error)?;
+                    let pairs = CollisionPairs::builtin()?;
                     let amount = layers.clone().map(|i| o4_column_cm5(profile, i) * per_km(i)).collect();
                     terms.push(
                         amount,
@@ -110,8 +103,7 @@ impl GasSpec {
                     );
                 }
                 Gas::No2 => {
-                    let table =
-                        Arc::new(CrossSection::parse("no2_bogumil", data::NO2_CROSS_SECTION).map_err(data_error)?);
+                    let table = Arc::new(CrossSection::parse("no2_bogumil", data::NO2_CROSS_SECTION)?);
                     for power in 0..3 {
                         let amount = layers
                             .clone()

@@ -157,6 +157,14 @@ pub fn check_wavelengths(
         if spec.rayleigh == RayleighModel::Bodhaine {
             check(l, "the Bodhaine Rayleigh formula", rayleigh::WAVELENGTH_RANGE_NM)?;
         }
+        if spec.gases.any() {
+            let names: Vec<&str> = spec.gases.gases.iter().map(|g| g.name()).collect();
+            check(
+                l,
+                &format!("the gas tables ({})", names.join(", ")),
+                GasSpec::range_nm(),
+            )?;
+        }
         if let Some(x) = &ozone {
             // With the wide range's gases on, ozone absorbs nothing past its
             // table (LOWTRAN 7 lists no O₃ band between 1066 and 3070 nm).
@@ -167,14 +175,6 @@ pub fn check_wavelengths(
                 hi
             };
             check(l, &format!("the {} ozone cross section", x.name), (lo, hi))?;
-        }
-        if spec.gases.any() {
-            let names: Vec<&str> = spec.gases.gases.iter().map(|g| g.name()).collect();
-            check(
-                l,
-                &format!("the gas tables ({})", names.join(", ")),
-                GasSpec::range_nm(),
-            )?;
         }
         if let Some(a) = &spec.aerosol {
             let (range, comp) = a.range_nm();
@@ -258,7 +258,9 @@ fn profile_terms(
             terms.push(amount, Spectrum::Aerosol { component, rh, phase });
         }
     }
-    spec.gases.push_terms(profile, &mut terms)?;
+    spec.gases
+        .push_terms(profile, &mut terms)
+        .map_err(|e| BuildError::Data(e.to_string()))?;
     Ok(terms)
 }
 
@@ -349,7 +351,11 @@ impl Atmosphere {
             Some(profile.o3_column_du())
         };
         let gas_columns = if spec.gases.any() {
-            Some(spec.gases.scale(&mut profile)?)
+            Some(
+                spec.gases
+                    .scale(&mut profile)
+                    .map_err(|e| BuildError::Data(e.to_string()))?,
+            )
         } else {
             None
         };

@@ -117,7 +117,7 @@ pub fn write_atmosphere(
     }
     match format {
         Format::Csv => {
-            writeln!(out, "{ATMOSPHERE_CSV_HEADER}")?;
+            writeln!(out, "{}", header.join(","))?;
             for r in &rows {
                 writeln!(out, "{}", r.join(","))?;
             }
