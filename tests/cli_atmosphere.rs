@@ -277,3 +277,73 @@ fn the_example_job_runs() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+const WIDE: &str = "[atmosphere]\naerosol = \"none\"\ngases = \"all\"\n[spectrum]\nwavelengths_nm = [940.0, 2300.0]\nband_width_nm = 40.0\n";
+
+#[test]
+fn gases_list_each_gas_per_layer_with_its_band_mean() {
+    let (_dir, path) = job(WIDE);
+    let out = atmosim()
+        .args(["atmosphere", "--format", "csv"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    let header = text.lines().next().unwrap();
+    // NO2's table ends at 760 nm: it has no term in these bands.
+    assert!(
+        header.ends_with(",tau_h2o,tau_co2,tau_o2,tau_ch4,tau_n2o,tau_o4"),
+        "{header}"
+    );
+    let rows: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).skip(1).collect();
+    assert!(rows.iter().all(|r| r.split(',').count() == 15));
+    // Water absorbs at 940 nm, methane at 2300 nm, and not the other way.
+    let gas_column = |lambda: &str, gas: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("# gas column {lambda} nm")))
+            .unwrap();
+        let field = line
+            .split_whitespace()
+            .find(|f| f.starts_with(&format!("tau_{gas}=")))
+            .unwrap();
+        field.split('=').nth(1).unwrap().parse().unwrap()
+    };
+    assert!(gas_column("940", "h2o") > 1.0);
+    assert_eq!(gas_column("940", "ch4"), 0.0);
+    assert!(gas_column("2300", "ch4") > 0.1);
+    assert!(text.contains("# precipitable water: 1.417"), "{text}");
+}
+
+#[test]
+fn gases_need_bands() {
+    rejects(
+        &WIDE.replace("band_width_nm = 40.0\n", ""),
+        &["spectrum.band_width_nm", "one wavelength", "40 nm"],
+    );
+}
+
+#[test]
+fn gases_refuse_bands_outside_280_to_2480_nm() {
+    rejects(
+        &WIDE.replace("2300.0", "2480.0"),
+        &["spectrum.band_width_nm", "gas tables", "280 to 2480"],
+    );
+}
+
+#[test]
+fn column_scalings_name_their_range_and_their_gas() {
+    rejects(
+        &WIDE.replace("gases = \"all\"\n", "gases = \"all\"\nprecipitable_water_cm = 12.0\n"),
+        &["atmosphere.precipitable_water_cm", "0 to 10 cm"],
+    );
+    rejects(
+        &WIDE.replace("gases = \"all\"\n", "gases = [\"h2o\"]\nco2_ppm = 400.0\n"),
+        &["atmosphere.co2_ppm", "\"co2\""],
+    );
+    rejects(
+        &WIDE.replace("\"all\"", "[\"h2o\", \"xenon\"]"),
+        &["atmosphere.gases", "xenon", "\"no2\""],
+    );
+}

@@ -260,6 +260,12 @@ fn context(section: &str, key: &str) -> Vec<(String, String)> {
             s("ground", "albedo = 0.5"),
             s("sensor", "type = \"fisheye\""),
         ],
+        // The gases take bands; their scalings need their gas.
+        ("atmosphere", "gases") => vec![s("spectrum", "band_width_nm = 40.0")],
+        ("atmosphere", "precipitable_water_cm" | "co2_ppm") => vec![
+            s("spectrum", "band_width_nm = 40.0"),
+            s("atmosphere", "gases = \"all\""),
+        ],
         ("atmosphere.layers", _) => vec![
             s("atmosphere.layers", "bottom_km = 0.0"),
             s("atmosphere.layers", "top_km = 1.0"),

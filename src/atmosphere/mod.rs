@@ -6,11 +6,13 @@
 //! `profile`, `rayleigh`, `ozone`, `aerosol`) or from explicit layers given
 //! as optical depths (the published plane-parallel benchmarks).
 
+pub mod gas_terms;
 pub mod layer_shape;
 pub mod optics;
 pub mod report;
 pub mod spectral_terms;
 
+use crate::atmosphere::gas_terms::GasSpec;
 use crate::atmosphere::layer_shape::LayerShape;
 use crate::atmosphere::optics::{ColumnOptics, Optics};
 use crate::atmosphere::spectral_terms::{Part, SpectralTerms, Spectrum};
@@ -56,6 +58,8 @@ pub struct ProfileSpec {
     /// Henyey–Greenstein g; the same at every wavelength) instead of an OPAC
     /// mixture: uvspec's `aerosol_file tau|ssa|gg`.
     pub aerosol_layers: Option<Vec<AerosolLayer>>,
+    /// The wide range's molecular absorbers (none by default).
+    pub gases: GasSpec,
 }
 
 /// One explicit aerosol layer on a profile atmosphere. A gas layer gets the
@@ -124,6 +128,9 @@ pub struct Atmosphere {
     pub layer_shapes: Option<Vec<LayerShape>>,
     /// The layer optics at any wavelength, as terms (for bands).
     pub terms: SpectralTerms,
+    /// Precipitable water (cm) and column-mean CO₂ (ppm) of a profile
+    /// with the wide range's gases on.
+    pub gas_columns: Option<(f64, f64)>,
 }
 
 /// Checks every wavelength against the data of `spec`'s constituents, and
@@ -150,8 +157,24 @@ pub fn check_wavelengths(
         if spec.rayleigh == RayleighModel::Bodhaine {
             check(l, "the Bodhaine Rayleigh formula", rayleigh::WAVELENGTH_RANGE_NM)?;
         }
+        if spec.gases.any() {
+            let names: Vec<&str> = spec.gases.gases.iter().map(|g| g.name()).collect();
+            check(
+                l,
+                &format!("the gas tables ({})", names.join(", ")),
+                GasSpec::range_nm(),
+            )?;
+        }
         if let Some(x) = &ozone {
-            check(l, &format!("the {} ozone cross section", x.name), x.range_nm())?;
+            // With the wide range's gases on, ozone absorbs nothing past its
+            // table (LOWTRAN 7 lists no O₃ band between 1066 and 3070 nm).
+            let (lo, hi) = x.range_nm();
+            let hi = if spec.gases.any() {
+                GasSpec::range_nm().1.max(hi)
+            } else {
+                hi
+            };
+            check(l, &format!("the {} ozone cross section", x.name), (lo, hi))?;
         }
         if let Some(a) = &spec.aerosol {
             let (range, comp) = a.range_nm();
@@ -235,7 +258,24 @@ fn profile_terms(
             terms.push(amount, Spectrum::Aerosol { component, rh, phase });
         }
     }
+    spec.gases
+        .push_terms(profile, &mut terms)
+        .map_err(|e| BuildError::Data(e.to_string()))?;
     Ok(terms)
+}
+
+/// Adds the gas terms' absorption at each wavelength to `optics`.
+fn add_gas_absorption(terms: &SpectralTerms, wavelengths_nm: &[f64], optics: &mut [Vec<Optics>]) {
+    for (&lambda, per_layer) in wavelengths_nm.iter().zip(optics.iter_mut()) {
+        for t in &terms.terms {
+            if let Spectrum::Gas { .. } = t.spectrum {
+                let k = t.spectrum.response(lambda).ext;
+                for (o, a) in per_layer.iter_mut().zip(&t.amount) {
+                    o.sigma_absorption += a * k;
+                }
+            }
+        }
+    }
 }
 
 /// Checks that a component's phase tables make samplers
@@ -310,6 +350,15 @@ impl Atmosphere {
             }
             Some(profile.o3_column_du())
         };
+        let gas_columns = if spec.gases.any() {
+            Some(
+                spec.gases
+                    .scale(&mut profile)
+                    .map_err(|e| BuildError::Data(e.to_string()))?,
+            )
+        } else {
+            None
+        };
 
         // Visibility scaling of the aerosol boundary layer.
         let mut visibility = None;
@@ -338,7 +387,7 @@ impl Atmosphere {
         };
 
         let co2 = profile.surface_co2_ratio();
-        let optics = wavelengths_nm
+        let optics: Vec<Vec<Optics>> = wavelengths_nm
             .iter()
             .map(|&lambda| {
                 let (sigma_r, rho) = match spec.rayleigh {
@@ -381,6 +430,10 @@ impl Atmosphere {
             .collect();
 
         let terms = profile_terms(&profile, spec, ozone.map(Arc::new), aerosol.as_ref(), co2)?;
+        // The gases' absorption at each wavelength (a monochromatic
+        // wavelength sees its slot of each band's pseudo-spectrum).
+        let mut optics = optics;
+        add_gas_absorption(&terms, wavelengths_nm, &mut optics);
         let layer_shapes = profile
             .levels
             .windows(2)
@@ -397,6 +450,7 @@ impl Atmosphere {
             ozone_column_du,
             layer_shapes: Some(layer_shapes),
             terms,
+            gas_columns,
         })
     }
 
@@ -444,6 +498,7 @@ impl Atmosphere {
             visibility: None,
             ozone_column_du: None,
             layer_shapes: None,
+            gas_columns: None,
         })
     }
 
@@ -460,6 +515,29 @@ impl Atmosphere {
     /// Thickness of layer `i` (km).
     pub fn thickness_km(&self, i: usize) -> f64 {
         self.levels_km[i + 1] - self.levels_km[i]
+    }
+
+    /// The direct transmittance of the vertical column at cos(zenith) `mu`
+    /// in plane-parallel geometry, e^(−τ(λ)/μ), averaged over [lo, hi] nm
+    /// on cells of at most 0.05 nm (two per slot of the gases'
+    /// pseudo-spectra, so exact for them), τ(λ) from the terms.
+    pub fn band_transmittance(&self, lo_nm: f64, hi_nm: f64, mu: f64) -> f64 {
+        let terms = &self.terms.terms;
+        let columns: Vec<f64> = terms
+            .iter()
+            .map(|t| t.amount.iter().enumerate().map(|(i, a)| a * self.thickness_km(i)).sum())
+            .collect();
+        let cells = ((hi_nm - lo_nm) * 20.0).ceil().max(1.0) as usize;
+        let mut responses = vec![spectral_terms::TermOptics::default(); terms.len()];
+        let sum: f64 = (0..cells)
+            .map(|k| {
+                let lambda = lo_nm + (hi_nm - lo_nm) * (k as f64 + 0.5) / cells as f64;
+                self.terms.responses_into(lambda, &mut responses);
+                let tau: f64 = responses.iter().zip(&columns).map(|(r, c)| r.ext * c).sum();
+                (-tau.max(0.0) / mu).exp()
+            })
+            .sum();
+        sum / cells as f64
     }
 
     /// Column optical depths at wavelength index `w`.

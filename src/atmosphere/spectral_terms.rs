@@ -21,6 +21,7 @@ use std::sync::Arc;
 use crate::atmosphere::layer_shape::LayerShape;
 use crate::atmosphere::optics::PointOptics;
 use crate::physics::aerosol::Component;
+use crate::physics::kdistribution::{CollisionPairs, Gas, KDistributions, Scaling};
 use crate::physics::mie::tables::PhaseTables;
 use crate::physics::ozone::CrossSection;
 use crate::physics::rayleigh;
@@ -106,6 +107,37 @@ pub enum Spectrum {
         rh: usize,
         phase: Option<Arc<PhaseTables>>,
     },
+    /// A molecular absorber of the wide range (`gas_terms`).
+    Gas { gas: Gas, response: GasResponse },
+}
+
+/// How a gas term's absorption per unit amount depends on λ (closed set).
+#[derive(Debug, Clone)]
+pub enum GasResponse {
+    /// A k-distribution gas's pseudo-spectrum (cm²) in its bands of one
+    /// amount scaling (0 in its other bands and outside them).
+    Bands {
+        table: &'static KDistributions,
+        scaling: Scaling,
+    },
+    /// The O₂–O₂ collision-induced cross section (cm⁵).
+    Pairs(&'static CollisionPairs),
+    /// Coefficient `power` of a cross section quadratic in T − T₀ (NO₂).
+    CrossSection { table: Arc<CrossSection>, power: usize },
+}
+
+impl GasResponse {
+    /// The absorption per unit amount of `gas` at λ.
+    pub fn at(&self, gas: Gas, lambda_nm: f64) -> f64 {
+        match self {
+            GasResponse::Bands { table, scaling } => table
+                .band_at(gas, lambda_nm)
+                .filter(|b| b.scaling == *scaling)
+                .map_or(0.0, |b| b.k_cm2(lambda_nm)),
+            GasResponse::Pairs(table) => table.sigma_cm5(lambda_nm),
+            GasResponse::CrossSection { table, power } => table.coefficient_cm2(lambda_nm, *power).unwrap_or(0.0),
+        }
+    }
 }
 
 impl Spectrum {
@@ -113,7 +145,7 @@ impl Spectrum {
     pub fn has_extinction(&self) -> bool {
         match self {
             Spectrum::Constant(r) => r.ext != 0.0,
-            Spectrum::Air { .. } | Spectrum::Ozone { .. } | Spectrum::Aerosol { .. } => true,
+            Spectrum::Air { .. } | Spectrum::Ozone { .. } | Spectrum::Aerosol { .. } | Spectrum::Gas { .. } => true,
         }
     }
 
@@ -143,6 +175,10 @@ impl Spectrum {
                     ..TermOptics::default()
                 },
                 None => TermOptics::default(),
+            },
+            Spectrum::Gas { gas, response } => TermOptics {
+                ext: response.at(*gas, lambda_nm),
+                ..TermOptics::default()
             },
         }
     }
@@ -200,7 +236,10 @@ impl Term {
     /// How the term varies inside a smooth layer.
     pub fn shape(&self) -> TermShape {
         match self.spectrum {
-            Spectrum::Air { .. } => TermShape::Air,
+            // The wide range's gases vary as the air inside a layer: exact
+            // for the well-mixed ones, an approximation for water vapour
+            // (the layer's column is kept either way).
+            Spectrum::Air { .. } | Spectrum::Gas { .. } => TermShape::Air,
             Spectrum::Ozone { .. } => TermShape::Ozone,
             Spectrum::Constant(_) | Spectrum::Aerosol { .. } => TermShape::Flat,
         }

@@ -33,7 +33,7 @@ pub fn run(args: AtmosphereArgs) -> anyhow::Result<()> {
     };
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    report::write_atmosphere(&job.atmosphere, format, &mut out).context("writing to stdout")?;
+    report::write_atmosphere(&job.atmosphere, &job.band_widths_nm, format, &mut out).context("writing to stdout")?;
     out.flush().context("writing to stdout")?;
     Ok(())
 }

@@ -4,11 +4,13 @@
 use std::path::Path;
 
 use super::context::Ctx;
-use super::raw::{RawAerosolLayer, RawAerosolPhase, RawAtmosphere, RawLayer, RawOzone, RawRayleigh};
+use super::raw::{RawAerosolLayer, RawAerosolPhase, RawAtmosphere, RawGases, RawLayer, RawOzone, RawRayleigh};
+use crate::atmosphere::gas_terms::GasSpec;
 use crate::atmosphere::{AerosolLayer, BuildError, ExplicitLayer, ProfileSpec};
 use crate::error::{Error, Result};
 use crate::physics::aerosol::{Aerosol, AerosolPhase};
 use crate::physics::data;
+use crate::physics::kdistribution::Gas;
 use crate::physics::ozone::OzoneModel;
 use crate::physics::profile::GasProfile;
 use crate::physics::rayleigh::RayleighModel;
@@ -172,10 +174,76 @@ pub(super) fn resolve_profile_spec(
             aerosol_phase,
             visibility_km: None,
             aerosol_layers,
+            gases: resolve_gases(ctx, atm)?,
         },
         name,
         visibilities,
     ))
+}
+
+/// The wide range's gases (`atmosphere.gases`, none by default) and their
+/// column scalings.
+fn resolve_gases(ctx: &Ctx, atm: &RawAtmosphere) -> Result<GasSpec> {
+    const KEY: &str = "atmosphere.gases";
+    let valid = || {
+        format!(
+            "\"all\", \"none\" or a list of: {}",
+            Gas::ALL
+                .iter()
+                .map(|g| format!("\"{}\"", g.name()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    let gases = match &atm.gases {
+        None => Vec::new(),
+        Some(RawGases::One(s)) if s == "none" => Vec::new(),
+        Some(RawGases::One(s)) if s == "all" => Gas::ALL.to_vec(),
+        Some(RawGases::One(s)) => return Err(ctx.invalid(KEY, format!("\"{s}\""), "unknown value", &valid())),
+        Some(RawGases::Many(list)) => {
+            let mut out = Vec::new();
+            for s in list {
+                let g = Gas::parse(s).ok_or_else(|| ctx.invalid(KEY, format!("\"{s}\""), "unknown gas", &valid()))?;
+                if out.contains(&g) {
+                    return Err(ctx.invalid(KEY, format!("\"{s}\""), "listed twice", "each gas once"));
+                }
+                out.push(g);
+            }
+            out.sort();
+            out
+        }
+    };
+    let needs = |key: &str, gas: Gas| {
+        ctx.invalid(
+            key,
+            "(given)",
+            &format!(
+                "scales the {} column, but atmosphere.gases does not include \"{}\"",
+                gas.name(),
+                gas.name()
+            ),
+            &format!(
+                "leave it out, or add \"{}\" to atmosphere.gases (or gases = \"all\")",
+                gas.name()
+            ),
+        )
+    };
+    let precipitable_water_cm = match atm.precipitable_water_cm {
+        None => None,
+        Some(_) if !gases.contains(&Gas::H2o) => return Err(needs("atmosphere.precipitable_water_cm", Gas::H2o)),
+        Some(v) => Some(ctx.range("atmosphere.precipitable_water_cm", v, 0.0, 10.0, false, "0 to 10 cm")?),
+    };
+    let co2_ppm = match atm.co2_ppm {
+        None => None,
+        Some(_) if !gases.contains(&Gas::Co2) => return Err(needs("atmosphere.co2_ppm", Gas::Co2)),
+        Some(v) => Some(ctx.range("atmosphere.co2_ppm", v, 0.0, 10000.0, false, "0 to 10000 ppm")?),
+    };
+    Ok(GasSpec {
+        gases,
+        precipitable_water_cm,
+        co2_ppm,
+        range_nm: (0.0, 0.0),
+    })
 }
 
 /// Explicit aerosol layers: non-overlapping intervals, τ ≥ 0, ω in [0, 1],

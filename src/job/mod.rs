@@ -340,6 +340,9 @@ impl Job {
                 ("aerosol", atm.aerosol.is_some()),
                 ("visibility_km", atm.visibility_km.is_some()),
                 ("aerosol_layers", atm.aerosol_layers.is_some()),
+                ("gases", atm.gases.is_some()),
+                ("precipitable_water_cm", atm.precipitable_water_cm.is_some()),
+                ("co2_ppm", atm.co2_ppm.is_some()),
             ]
             .iter()
             .filter(|(_, g)| *g)
@@ -376,6 +379,22 @@ impl Job {
                 true,
                 &format!("above the ground, at most the profile's top, {profile_top} km"),
             )?;
+            if spec.gases.any() {
+                if let Some(w) = band_widths_nm.iter().position(|&w| w == 0.0) {
+                    return Err(ctx.invalid(
+                        "spectrum.band_width_nm",
+                        0,
+                        &format!(
+                            "the channel at {} nm is one wavelength, but atmosphere.gases absorb by k-distributions of 40 nm bands, which describe a band, not a wavelength",
+                            wavelengths_nm[w]
+                        ),
+                        "a band width for every channel (40 nm: the gases' own bands, from 280 nm)",
+                    ));
+                }
+                let lo = band_edges_nm.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = band_edges_nm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                spec.gases.range_nm = (lo, hi);
+            }
             check_wavelengths(&spec, &band_edges_nm)
                 .map_err(|e| band_error(&ctx, &wavelengths_nm, &band_widths_nm, e))?;
             let mut atmospheres = Vec::with_capacity(visibilities.len());

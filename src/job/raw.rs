@@ -41,6 +41,17 @@ pub(super) struct RawAtmosphere {
     pub(super) visibility_km: Option<OneOrMany>,
     pub(super) layers: Option<Vec<RawLayer>>,
     pub(super) aerosol_layers: Option<Vec<RawAerosolLayer>>,
+    pub(super) gases: Option<RawGases>,
+    pub(super) precipitable_water_cm: Option<f64>,
+    pub(super) co2_ppm: Option<f64>,
+}
+
+/// `atmosphere.gases`: `"all"`, `"none"` or a list of gas names.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawGases {
+    One(String),
+    Many(Vec<String>),
 }
 
 #[derive(Debug, Deserialize)]

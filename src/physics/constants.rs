@@ -34,3 +34,20 @@ pub const VISIBILITY_WAVELENGTH_NM: f64 = 550.0;
 
 /// Centimetres per kilometre.
 pub const CM_PER_KM: f64 = 1.0e5;
+
+/// Avogadro constant in mol⁻¹ (CODATA 2018, exact by the 2019 SI).
+pub const AVOGADRO_PER_MOL: f64 = 6.022_140_76e23;
+
+/// Molar mass of water in g mol⁻¹ (IUPAC 2013 standard atomic weights).
+pub const H2O_MOLAR_MASS_G: f64 = 18.015;
+
+/// Density of liquid water in g cm⁻³ that defines precipitable water (the
+/// depth of the column's water as liquid; WMO).
+pub const LIQUID_WATER_G_PER_CM3: f64 = 1.0;
+
+/// CH₄ and N₂O volume mixing ratios, constant with altitude: the ground
+/// values of the AFGL 1986 US standard atmosphere (Anderson et al. 1986;
+/// the AFGL files atmosim carries hold no CH₄ or N₂O column).
+pub const CH4_MIXING_RATIO: f64 = 1.7e-6;
+/// See [`CH4_MIXING_RATIO`].
+pub const N2O_MIXING_RATIO: f64 = 0.32e-6;

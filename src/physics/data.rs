@@ -220,6 +220,18 @@ pub static OZONE_CROSS_SECTIONS: &[(&str, &str)] = embedded! {
     "molina" => "spectra/ozone_molina.txt",
 };
 
+/// NO₂ absorption cross section (Bogumil et al., IUP Bremen), 280–760 nm,
+/// in the ozone tables' format.
+pub static NO2_CROSS_SECTION: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/no2_bogumil.txt"));
+
+/// O₂–O₂ collision-induced absorption (Greenblatt et al. 1990), cm⁵.
+pub static O4_CROSS_SECTION: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/o4_greenblatt.txt"));
+
+/// The k-distributions of H₂O, CO₂, O₂, CH₄ and N₂O per 40 nm band,
+/// 280–2480 nm (`physics::kdistribution`).
+pub static GAS_KDISTRIBUTIONS: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/gas_kdistributions.txt"));
+
 /// The CIE 1931 2° colour-matching functions, 380–780 nm every 5 nm (the
 /// colour of previews, `io::srgb`).
 pub static CIE_1931_2DEG: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/spectra/cie1931_2deg_5nm.txt"));

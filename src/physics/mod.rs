@@ -5,6 +5,8 @@
 pub mod aerosol;
 pub mod constants;
 pub mod data;
+pub mod gas_columns;
+pub mod kdistribution;
 pub mod mie;
 pub mod ozone;
 pub mod profile;

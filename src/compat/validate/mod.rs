@@ -17,6 +17,7 @@ use crate::error::Result;
 
 mod case;
 mod cases;
+mod gases;
 pub(crate) mod libradtran;
 pub mod plot;
 pub mod stats;
@@ -29,6 +30,7 @@ pub use stats::{GroupRatio, Statistics, Value, statistics};
 pub fn cases() -> Vec<Case> {
     let mut all = cases::published();
     all.extend(libradtran::cases());
+    all.extend(gases::cases());
     all
 }
 

@@ -502,6 +502,9 @@ mod tests {
         let w: Vec<f64> = (0..11).map(|k| 340.0 + 40.0 * k as f64).collect();
         assert_eq!(channels(&w, &[40.0; 11]), Ok((320.0, 40.0)));
         assert_eq!(channels(&w, &[]), Ok((320.0, 40.0)));
+        // The wide range's 55 bands, 280–2480 nm.
+        let wide: Vec<f64> = (0..55).map(|k| 300.0 + 40.0 * k as f64).collect();
+        assert_eq!(channels(&wide, &[40.0; 55]), Ok((280.0, 40.0)));
         assert!(
             channels(&w, &[20.0; 11])
                 .unwrap_err()
