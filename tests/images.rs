@@ -331,6 +331,15 @@ fn with_the_sun_at_the_zenith_every_column_is_the_first_one_turned() {
     // gives it, and the other columns, traced with independent paths,
     // in agreement with it (Q strongly polarised, so a frame that did not
     // turn with the azimuth would be caught).
+    //
+    // Seed 5 since 2026-11-29: with the day's roulette threshold (0.1 under
+    // this zenith sun) seed 4 put the sphere's column 0 of row 4 4.0
+    // standard errors high, so 15 comparisons against it read up to 4.36
+    // (threshold 4.19). Over seeds 1-16 the two thresholds calibrate alike
+    // (mean z² over the sphere's 360 comparisons 0.750 with 0.1, 0.758
+    // with 0.03; 1 and 0 seeds over the threshold), the pixel's direction
+    // agrees at 400,000 paths and its largest sample is 4-6 times the mean
+    // (docs/lab-notes/2026-11-29.md, "The day roulette's failed test").
     for (sensor, observer_km) in [
         ("type = \"sphere\"\nresolution = [16, 8]\n", 2.0),
         (
@@ -341,7 +350,7 @@ fn with_the_sun_at_the_zenith_every_column_is_the_first_one_turned() {
         let render = |symmetry: &str| {
             whole_image(&format!(
                 "{}[observer]\naltitude_km = {observer_km}\n[sensor]\n{sensor}symmetry = \"{symmetry}\"\n\
-                 [render]\nsamples = 600\nseed = 4\n",
+                 [render]\nsamples = 600\nseed = 5\n",
                 SKY.replace("elevation_deg = 25.0", "elevation_deg = 90.0")
             ))
         };

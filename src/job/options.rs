@@ -86,6 +86,37 @@ impl Settings {
 /// hundredths) at about 1.3× the time per path (docs/design.md, "Transport").
 pub const DEFAULT_ROULETTE_THRESHOLD: f64 = 0.03;
 
+/// The settings a job gave itself; the others are defaults that a scene
+/// chooses by its regime where measurements say so
+/// (`transport::scene_build`, docs/performance.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct GivenSettings {
+    pub roulette_threshold: bool,
+}
+
+/// The roulette threshold by day: with the sun at least
+/// [`DAY_ROULETTE_MIN_ELEVATION_DEG`] up and every channel's column
+/// extinction at most [`DAY_ROULETTE_MAX_COLUMN`], a scene roulettes from
+/// 0.1 (the threshold of versions before 2026-11-26) instead of the
+/// default: single scattering dominates there, and the longer paths of
+/// 0.03 cost more time than they save variance. Figure-of-merit suite
+/// (`bench --suite`, both thresholds paired on one build, 2 rounds,
+/// 2026-11-29): day 1.24× (median over its 16 directions, min 1.16),
+/// the 1000-level profile 1.11×, Mie at sun zenith 60° 1.28×; but 11
+/// bands at sun 45° 0.98× (its 340 nm column is 1.2), bands at 20° up
+/// 0.80×, from 15 km at sun zenith 85° 0.84×, twilight 0.76×, sun 2° up
+/// 0.97×: those keep 0.03. Calibration of the standard errors unchanged
+/// (docs/lab-notes/2026-11-29.md, "The day roulette's failed test").
+pub const DAY_ROULETTE_THRESHOLD: f64 = 0.1;
+
+/// The least sun elevation (°) of [`DAY_ROULETTE_THRESHOLD`].
+pub const DAY_ROULETTE_MIN_ELEVATION_DEG: f64 = 30.0;
+
+/// The largest column extinction of any channel of
+/// [`DAY_ROULETTE_THRESHOLD`] (the day case's 540 nm column with its
+/// aerosol is 0.38; the bands' 340 nm 1.2).
+pub const DAY_ROULETTE_MAX_COLUMN: f64 = 0.7;
+
 /// How the channels that share spectral paths are grouped (closed set):
 /// each group has paths of its own, its channels sharing them (hero
 /// wavelengths and the balance heuristic inside the group).

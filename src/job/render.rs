@@ -12,7 +12,8 @@ use super::raw::{
 use crate::error::Result;
 use crate::job::options::MediumModel;
 use crate::job::options::{
-    DEFAULT_ROULETTE_THRESHOLD, MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance, TrackingLayers,
+    DEFAULT_ROULETTE_THRESHOLD, GivenSettings, MAX_ALBEDOS, Settings, SpectralGroups, SunSampling, SunTransmittance,
+    TrackingLayers,
 };
 use crate::polarization::stokes_frame::StokesFrame;
 use crate::sensor::camera::{Camera, Hemisphere, PixelFilter, Projection};
@@ -177,6 +178,9 @@ pub struct RenderSpec {
     pub spectral_groups: SpectralGroups,
     pub seed: u64,
     pub settings: Settings,
+    /// Which of the settings the job gave, and which are the defaults a
+    /// scene may choose by its regime (`transport::scene_build`).
+    pub given: GivenSettings,
     pub medium: MediumModel,
     pub majorant_scale: f64,
     pub output_directory: PathBuf,
@@ -374,6 +378,9 @@ pub(super) fn resolve(
         shared_wavelengths: render.shared_wavelengths.unwrap_or(true),
         spectral_groups: spectral_groups(ctx, render.spectral_groups.as_ref())?,
         seed: render.seed.unwrap_or(1),
+        given: GivenSettings {
+            roulette_threshold: render.roulette_threshold.is_some(),
+        },
         settings: Settings {
             polarized: render.polarized.unwrap_or(true),
             max_scattering_order: render.max_scattering_order.unwrap_or(0),

@@ -2,7 +2,10 @@
 //! task's paths carry, with the job's albedos, medium and settings. (An
 //! inherent `impl Job` here, so the job itself knows nothing of transport.)
 
-use crate::job::options::{AUTO_GROUPS_MIN_SPREAD, MediumModel, SpectralGroups, SunSampling};
+use crate::job::options::{
+    AUTO_GROUPS_MIN_SPREAD, DAY_ROULETTE_MAX_COLUMN, DAY_ROULETTE_MIN_ELEVATION_DEG, DAY_ROULETTE_THRESHOLD,
+    MediumModel, SpectralGroups, SunSampling,
+};
 use crate::job::spectrum::Channel;
 use crate::job::{Job, Task};
 use crate::transport::tracer::{MediumSettings, Scene, sun_peak_serves};
@@ -97,7 +100,7 @@ impl Job {
             && r.settings.forced_collisions
             && medium.shapes.is_none()
             && r.majorant_scale == 1.0;
-        let scene = Scene::new(
+        let mut scene = Scene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
             task.atmosphere.terms.clone(),
@@ -107,6 +110,13 @@ impl Job {
             r.settings,
             medium,
         );
+        // The roulette threshold by regime where the job left it (measured
+        // on `bench --suite`, docs/performance.md): by day over thin
+        // columns from 0.1 (`DAY_ROULETTE_THRESHOLD`).
+        let thin = scene.largest_column_extinction() <= DAY_ROULETTE_MAX_COLUMN;
+        if !r.given.roulette_threshold && 90.0 - task.sun.zenith_deg >= DAY_ROULETTE_MIN_ELEVATION_DEG && thin {
+            scene.settings.roulette_threshold = DAY_ROULETTE_THRESHOLD;
+        }
         // With `auto`, a sun low but up whose connections are at collisions
         // gets scattering directions drawn in part about it (`sun_peak`).
         let sun_peak =

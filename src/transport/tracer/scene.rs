@@ -245,6 +245,24 @@ impl Scene {
         self
     }
 
+    /// The largest column extinction (ground to top) of the scene's
+    /// channels at their centre wavelengths.
+    pub fn largest_column_extinction(&self) -> f64 {
+        let mut responses = vec![TermOptics::default(); self.terms.terms.len()];
+        self.channels
+            .iter()
+            .map(|c| {
+                self.terms.responses_into(c.lambda_nm, &mut responses);
+                (0..self.levels_km.len() - 1)
+                    .map(|l| {
+                        self.terms.layer_sum(l, &responses).coefficients().sigma_t
+                            * (self.levels_km[l + 1] - self.levels_km[l])
+                    })
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// The scene with sun-aware connections: at every flight, one point
     /// drawn along it from a density that follows the sunlit single
     /// scattering of the channels (`Scene::sun_along_flight`)
