@@ -2,6 +2,7 @@
 //! task's paths carry, with the job's albedos, medium and settings. (An
 //! inherent `impl Job` here, so the job itself knows nothing of transport.)
 
+use crate::geometry::shell::Geometry;
 use crate::job::options::{
     AUTO_GROUPS_MIN_SPREAD, DAY_ROULETTE_MAX_COLUMN, DAY_ROULETTE_MIN_ELEVATION_DEG, DAY_ROULETTE_THRESHOLD,
     MediumModel, SpectralGroups, SunSampling,
@@ -93,13 +94,16 @@ impl Job {
             majorant_scale: r.majorant_scale,
             pseudo_spherical_radius_km: self.pseudo_spherical_radius_km(),
         };
-        let sun_aware = r
-            .settings
-            .sun_sampling
-            .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport())
-            && r.settings.forced_collisions
-            && medium.shapes.is_none()
-            && r.majorant_scale == 1.0;
+        // Sun-aware connections need forced flights through a layered
+        // medium tracked at its own majorants.
+        let sun_aware_possible = r.settings.forced_collisions && medium.shapes.is_none() && r.majorant_scale == 1.0;
+        let sun_aware = sun_aware_possible
+            && r.settings
+                .sun_sampling
+                .is_sun_aware(task.sun.zenith_deg, self.plane_parallel_transport());
+        let view_sun_aware_possible = sun_aware_possible
+            && r.settings.sun_sampling == SunSampling::Auto
+            && matches!(self.geometry(), Geometry::Spherical { .. });
         let mut scene = Scene::new(
             self.geometry(),
             task.atmosphere.levels_km.clone(),
@@ -121,8 +125,17 @@ impl Job {
         // gets scattering directions drawn in part about it (`sun_peak`).
         let sun_peak =
             !sun_aware && r.settings.sun_sampling == SunSampling::Auto && sun_peak_serves(task.sun.zenith_deg);
+        // By day, with `auto`, over columns thin enough that one
+        // wavelength's density serves (`DAY_ROULETTE_MAX_COLUMN`), views
+        // near the sun connect along their own flight
+        // (`Scene::with_sun_aware_view`).
+        let view_sun_aware = view_sun_aware_possible && !sun_aware && thin;
         let scene = if sun_aware {
             scene.with_sun_aware()
+        } else if view_sun_aware && sun_peak {
+            scene.with_sun_aware_view().with_sun_peak()
+        } else if view_sun_aware {
+            scene.with_sun_aware_view()
         } else if sun_peak {
             scene.with_sun_peak()
         } else {

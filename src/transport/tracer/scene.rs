@@ -29,6 +29,15 @@ use super::sun_peak::SunPeak;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::{SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, reflects};
 
+/// Views within this angle (°) of the sun connect along their own flight
+/// by day (`Scene::with_sun_aware_view`). Paired on `bench --suite` with
+/// every view's flight so connected against none (2026-11-29,
+/// docs/performance.md): FOM of I 4.4× at 15° from a sun 45° up, 7–9× at
+/// 3–5° and 224× at the sun itself (Mie, sun zenith 60°), 1.2–1.5× at
+/// 20–30°, but 0.4–0.6× beyond 35°; a path with the view so connected
+/// costs about 2.6 times one without.
+pub const VIEW_SUN_AWARE_MAX_ANGLE_DEG: f64 = 18.0;
+
 /// The widest wavelength cell of the direct irradiance's band average (nm).
 pub const DIRECT_CELL_NM: f64 = 0.05;
 
@@ -245,6 +254,35 @@ impl Scene {
         self
     }
 
+    /// Sun-aware connections along the sensor's own flight alone where
+    /// the view is within [`VIEW_SUN_AWARE_MAX_ANGLE_DEG`] of the sun: the
+    /// aerosol's forward peak makes single scattering along the view most
+    /// of such a view's light and of its variance, and the density then
+    /// follows it almost exactly ([`VIEW_SUN_AWARE_SHARE`] over segments).
+    /// Every other flight connects at its collision; no lobe toward the
+    /// sunlit air.
+    ///
+    /// [`VIEW_SUN_AWARE_SHARE`]: super::vertex::VIEW_SUN_AWARE_SHARE
+    pub fn with_sun_aware_view(self) -> Scene {
+        let mut scene = self.with_sun_aware();
+        if let Some(follow) = scene.sun_follow.as_mut() {
+            follow.view_only = true;
+        }
+        scene.sun_lobes = None;
+        scene
+    }
+
+    /// The least cosine between a view and the sun at which its own flight
+    /// connects along the flight (above 1, never, unless every flight
+    /// does).
+    pub(super) fn view_sun_aware_min_cos(&self) -> f64 {
+        match &self.sun_follow {
+            Some(f) if f.view_only => VIEW_SUN_AWARE_MAX_ANGLE_DEG.to_radians().cos(),
+            Some(_) => -1.0,
+            None => 2.0,
+        }
+    }
+
     /// The largest column extinction (ground to top) of the scene's
     /// channels at their centre wavelengths.
     pub fn largest_column_extinction(&self) -> f64 {
@@ -338,6 +376,7 @@ impl Scene {
             coefficients,
             max_column: centre[n - 1].0,
             aerosol_p11,
+            view_only: false,
             // Measured in spherical geometry; plane-parallel scenes keep
             // every flight's density for the view too (docs/design-sun.md,
             // "The view's own flight": with it, libRadtran B's sun

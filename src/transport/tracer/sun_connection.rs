@@ -135,6 +135,9 @@ impl Scene {
         let Some(follow) = &self.sun_follow else {
             return false;
         };
+        if follow.view_only && !(path.order == 0 && path.view_sun_aware) {
+            return false;
+        }
         if !self.flight_segments(path, ray) {
             return false;
         }

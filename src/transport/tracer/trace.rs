@@ -44,6 +44,7 @@ impl Scene {
             // A path that starts on the ground (looking down from it) keeps
             // the scene's threshold; one with a view flight scales it there.
             path.roulette_threshold = self.settings.roulette_threshold;
+            path.view_sun_aware = view.dot(self.sun.direction) >= self.view_sun_aware_min_cos();
             if spectra.sigma.is_empty() {
                 path.hero_sigma.clear();
                 path.hero_sigma
@@ -111,7 +112,7 @@ impl Scene {
             }
             // Thin views roulette later where sun connections are at
             // collisions (`view_roulette_scale`).
-            if path.order == 0 && self.sun_follow.is_none() {
+            if path.order == 0 && self.sun_follow.as_ref().is_none_or(|f| f.view_only) {
                 path.set_view_roulette(self.settings.roulette_threshold);
             }
             // A forced flight toward a reflecting ground is split at the
