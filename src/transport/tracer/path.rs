@@ -3,11 +3,12 @@
 //! work space, and Russian roulette.
 
 use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
-use crate::geometry::ray::Segment;
+use crate::geometry::ray::{Ray, Segment};
 use crate::geometry::shell_exit::ShellExit;
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::phase_mixture::PhaseMixture;
@@ -63,6 +64,13 @@ pub(super) struct Path {
     /// (`[point·channels + channel]`; `tracking`).
     pub(super) residual_t: Vec<f64>,
     pub(super) residual_tr: Vec<f64>,
+    /// The sun-aware density of the sensor's own flight, and the ray and
+    /// scene it was built for with whether it can be drawn from: kept on
+    /// the thread from sample to sample (a direction's samples all fly
+    /// the same view ray, and the density depends on nothing else), never
+    /// copied into a branch.
+    pub(super) view_density: FlightDensity,
+    pub(super) view_key: Option<(ViewDensityKey, bool)>,
     /// The roulette's threshold for this path: the scene's, scaled by how
     /// likely the sensor's view is to scatter at all
     /// ([`Path::set_view_roulette`]).
@@ -99,6 +107,39 @@ impl Depths {
     }
 }
 
+/// What the sensor's own flight's sun-aware density was built for: the
+/// scene's [`SunFollow`] (by its id), the view ray bit for bit, and the
+/// most segments in a piece.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct ViewDensityKey {
+    follow: u64,
+    origin: [u64; 3],
+    dir: [u64; 3],
+    layer: usize,
+    pieces: usize,
+}
+
+impl ViewDensityKey {
+    pub(super) fn new(follow: u64, ray: &Ray, pieces: usize) -> ViewDensityKey {
+        let bits = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        ViewDensityKey {
+            follow,
+            origin: bits(ray.origin),
+            dir: bits(ray.dir),
+            layer: ray.layer,
+            pieces,
+        }
+    }
+}
+
+/// A new [`SunFollow::id`]: every one made in the process has its own, so
+/// a thread's kept view density ([`Path::view_key`]) never serves another
+/// scene's.
+pub(super) fn next_follow_id() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
 /// The most segments in one piece of a sun-aware density along shared
 /// paths, where building it costs per segment and followed channel
 /// (chosen by measurement: docs/design-sun.md, "Sun connections along shared paths").
@@ -113,6 +154,8 @@ pub(super) const PIECE_SEGMENTS: usize = 4;
 /// divided by; these need no work per path).
 #[derive(Debug, Clone)]
 pub(super) struct SunFollow {
+    /// Its own id in the process ([`next_follow_id`]).
+    pub(super) id: u64,
     /// Their depths toward the sun, one profile each.
     pub(super) depth: SunDepth,
     pub(super) channels: Vec<usize>,

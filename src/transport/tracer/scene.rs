@@ -371,6 +371,7 @@ impl Scene {
             }
         }
         self.sun_follow = Some(SunFollow {
+            id: super::path::next_follow_id(),
             depth,
             channels: followed.iter().map(|f| f.1).collect(),
             coefficients,
@@ -439,7 +440,7 @@ impl Scene {
             if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
                 return 0.0;
             }
-            if !self.build_sun_density(follow, &mut path, &ray, PIECE_SEGMENTS) {
+            if !self.build_sun_density(follow, &path.segments, &mut path.density, &ray, PIECE_SEGMENTS) {
                 return 0.0;
             }
             if ground {
@@ -609,5 +610,60 @@ mod tests {
         let text = "[sun]\nelevation_deg = 17.0\n[spectrum]\nwavelengths_nm = [500.0]\n[render]\nsun_sampling = \"collision\"\n";
         let collision = Job::parse(text, "test.toml", FsPath::new(".")).expect("a valid job");
         assert!(collision.scene(0).sun_peak.is_none());
+    }
+
+    #[test]
+    fn the_view_density_kept_between_samples_gives_the_samples_built_afresh() {
+        // By day the view within 18° of the sun connects along its own
+        // flight, from a density each thread keeps while the view ray
+        // stays the same. Every sample, with the density kept from the
+        // previous one (of the same or of another direction) or built
+        // afresh, is the same bit for bit.
+        use crate::polarization::stokes::Stokes;
+        use crate::sampling::stream::{Estimate, Render, StreamKey};
+        use crate::sensor::direction::Direction;
+
+        use super::super::path::WORK;
+
+        let text = "[atmosphere]\nprofile = \"us_standard\"\n[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\n\
+                    top_km = 2.0\ntau = 0.2\nssa = 0.95\ng = 0.7\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
+                    wavelengths_nm = [540.0]\n[ground]\nalbedo = 0.2\n[sensor]\ntype = \"directions\"\n\
+                    directions = [[30.0, 0.0]]\n[render]\nsamples = 1\n";
+        let scene = Job::parse(text, "test.toml", FsPath::new("."))
+            .expect("a valid job")
+            .scene(0);
+        assert!(scene.sun_follow.as_ref().is_some_and(|f| f.view_only));
+        let views: Vec<Direction> = [(30.0, 0.0), (60.0, 0.0), (45.0, 10.0)]
+            .iter()
+            .map(|&(z, a)| Direction {
+                view_zenith_deg: z,
+                azimuth_deg: a,
+            })
+            .collect();
+        let mut out = vec![Stokes::zero(); scene.value_count()];
+        let mut sample = |d: usize, i: u64, fresh: bool| {
+            if fresh {
+                WORK.with_borrow_mut(|w| w.path.view_key = None);
+            }
+            let key = StreamKey::new(3, Render::channel(0, 0), Estimate::Direction(d));
+            let (v, e1) = (views[d].vector(), views[d].meridian_axis());
+            scene.radiance_sample(0.0, v, e1, &mut key.sampler(i), &mut out);
+            out[0].0
+        };
+        let mut kept = 0;
+        for i in 0..300 {
+            for d in [0, 0, 1, 2, 2, 0] {
+                let warm = sample(d, i, false);
+                let cold = sample(d, i, true);
+                assert_eq!(
+                    warm.map(f64::to_bits),
+                    cold.map(f64::to_bits),
+                    "direction {d}, sample {i}"
+                );
+                kept += usize::from(WORK.with_borrow(|w| w.path.view_key.is_some()));
+            }
+        }
+        // The views near the sun used a density (and kept it).
+        assert!(kept > 300, "{kept}");
     }
 }

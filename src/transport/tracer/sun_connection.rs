@@ -10,9 +10,10 @@ use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
 use crate::polarization::stokes::Stokes;
 use crate::sampling::sampler::Sampler;
+use crate::transport::flight_density::FlightDensity;
 use crate::transport::free_flight::FlightEnd;
 
-use super::path::{PIECE_SEGMENTS, Path, SunFollow};
+use super::path::{PIECE_SEGMENTS, Path, SunFollow, ViewDensityKey};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
@@ -145,27 +146,50 @@ impl Scene {
             return true;
         }
         // The sensor's own flight with a density exact per segment and
-        // little defence; the scattered flights' coarser and more defensive.
-        let (share, pieces) = if path.order == 0 {
-            follow.view_density
+        // little defence, kept from sample to sample while the view ray
+        // stays the same (every sample of a direction, or of a pixel's
+        // centre); the scattered flights' coarser and more defensive.
+        let point = if path.order == 0 {
+            let (share, pieces) = follow.view_density;
+            let key = ViewDensityKey::new(follow.id, ray, pieces);
+            let drawable = match path.view_key {
+                Some((k, drawable)) if k == key => drawable,
+                _ => {
+                    let drawable = self.build_sun_density(follow, &path.segments, &mut path.view_density, ray, pieces);
+                    path.view_key = Some((key, drawable));
+                    drawable
+                }
+            };
+            if !drawable {
+                return true;
+            }
+            path.view_density.sample(&path.segments, share, sampler)
         } else {
-            (SUN_AWARE_SHARE, PIECE_SEGMENTS)
+            if !self.build_sun_density(follow, &path.segments, &mut path.density, ray, PIECE_SEGMENTS) {
+                return true;
+            }
+            path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler)
         };
-        if !self.build_sun_density(follow, path, ray, pieces) {
-            return true;
-        }
-        let Some(point) = path.density.sample(&path.segments, share, sampler) else {
+        let Some(point) = point else {
             return true;
         };
         self.sun_at_point(path, spectra, ray, (point.segment, point.t), point.pdf, sampler);
         true
     }
 
-    /// The sun-following density along the flight along `ray` (its
-    /// segments in `path.segments`) into `path.density`
-    /// ([`FlightDensity`](crate::transport::flight_density::FlightDensity));
-    /// whether any followed channel can be drawn from.
-    pub(super) fn build_sun_density(&self, follow: &SunFollow, path: &mut Path, ray: &Ray, pieces: usize) -> bool {
+    /// The sun-following density along the flight along `ray` over its
+    /// `segments` into `density`, in pieces of at most `pieces` segments;
+    /// whether any followed channel can be drawn from. It depends on the
+    /// ray and the scene alone (the followed channels' optics at their
+    /// centre wavelengths, the sun's centre), not on the path.
+    pub(super) fn build_sun_density(
+        &self,
+        follow: &SunFollow,
+        segments: &[Segment],
+        density: &mut FlightDensity,
+        ray: &Ray,
+        pieces: usize,
+    ) -> bool {
         let depth = &follow.depth;
         let nk = follow.channels.len();
         let s0 = self.sun.direction;
@@ -207,7 +231,7 @@ impl Scene {
             }
             o
         };
-        path.density.build(ray, &path.segments, nk, pieces, optics, depth, s0)
+        density.build(ray, segments, nk, pieces, optics, depth, s0)
     }
 
     /// Whether a sun-aware connection along the flight along `ray` to `end`
