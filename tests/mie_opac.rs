@@ -337,7 +337,10 @@ fn shipped_optics_outside_300_to_800_nm_match_libradtran() {
         .collect();
     assert_eq!(checked, expected);
     let refs = rows("validation/opac_mie/optprop.txt");
-    assert!(refs.iter().all(|r| r[1] <= 1000.0), "a reference past 1000 nm: compare it");
+    assert!(
+        refs.iter().all(|r| r[1] <= 1000.0),
+        "a reference past 1000 nm: compare it"
+    );
 }
 
 /// Compares the shipped optics of inso, waso, soot and suso with
@@ -378,7 +381,12 @@ fn compare_shipped_optics_with_libradtran(select: impl Fn(f64) -> bool) -> Vec<(
                 r[1],
                 sci(&err)
             );
-            println!("{c} {} % {} nm: relative error of ext, ssa, g = {}", r[2], r[1], sci(&err));
+            println!(
+                "{c} {} % {} nm: relative error of ext, ssa, g = {}",
+                r[2],
+                r[1],
+                sci(&err)
+            );
             checked.push((c, r[1], r[2]));
         }
         println!("{c}: worst relative error ext, ssa, g: {}", sci(&worst));
@@ -546,14 +554,26 @@ fn the_default_aerosol_renders_at_300_and_2060_nm() {
     assert_eq!(atm.wavelengths_nm, [300.0, 2060.0]);
     for (w, per_layer) in atm.optics.iter().enumerate() {
         let dz = |i: usize| atm.levels_km[i + 1] - atm.levels_km[i];
-        let tau: f64 = per_layer.iter().enumerate().map(|(i, o)| o.sigma_aerosol_ext * dz(i)).sum();
-        let tau_s: f64 = per_layer.iter().enumerate().map(|(i, o)| o.sigma_aerosol_sca * dz(i)).sum();
+        let tau: f64 = per_layer
+            .iter()
+            .enumerate()
+            .map(|(i, o)| o.sigma_aerosol_ext * dz(i))
+            .sum();
+        let tau_s: f64 = per_layer
+            .iter()
+            .enumerate()
+            .map(|(i, o)| o.sigma_aerosol_sca * dz(i))
+            .sum();
         println!(
             "{} nm: aerosol tau {tau:.4}, albedo {:.3}",
             atm.wavelengths_nm[w],
             tau_s / tau
         );
-        assert!(tau > 0.0 && tau_s > 0.0 && tau_s < tau, "{} nm: {tau} {tau_s}", atm.wavelengths_nm[w]);
+        assert!(
+            tau > 0.0 && tau_s > 0.0 && tau_s < tau,
+            "{} nm: {tau} {tau_s}",
+            atm.wavelengths_nm[w]
+        );
     }
 
     let dir = common::run_job(text, &["render", "job.toml", "--out", "out", "--quiet"]);
@@ -568,7 +588,11 @@ fn the_default_aerosol_renders_at_300_and_2060_nm() {
     assert_eq!(rows.len(), 2 * 2);
     for r in &rows {
         let (i, se) = (r[col("I")], r[col("I_se")]);
-        println!("{} nm, view zenith {}: I {i:.4e} +- {se:.1e}", r[col("wavelength_nm")], r[col("view_zenith_deg")]);
+        println!(
+            "{} nm, view zenith {}: I {i:.4e} +- {se:.1e}",
+            r[col("wavelength_nm")],
+            r[col("view_zenith_deg")]
+        );
         assert!(i.is_finite() && i > 0.0 && se.is_finite() && se > 0.0, "{r:?}");
     }
     let wavelengths: Vec<f64> = rows.iter().map(|r| r[col("wavelength_nm")]).collect();
