@@ -170,9 +170,15 @@ fn negative_layer_optical_depth_names_the_layer() {
 
 #[test]
 fn wavelength_outside_the_data_names_the_range() {
+    // The OPAC tables span 250–2500 nm: below them (where Rayleigh and
+    // ozone still have data), and past them with ozone off.
     rejects(
-        "[spectrum]\nwavelengths_nm = [540.0, 900.0]\n",
-        &["spectrum.wavelengths_nm", "900", "300 to 800 nm"],
+        "[spectrum]\nwavelengths_nm = [540.0, 240.0]\n",
+        &["spectrum.wavelengths_nm", "240", "OPAC component", "250 to 2500 nm"],
+    );
+    rejects(
+        "[atmosphere]\nozone = \"none\"\n[spectrum]\nwavelengths_nm = [2600.0]\n",
+        &["spectrum.wavelengths_nm", "2600", "OPAC component", "250 to 2500 nm"],
     );
     rejects(
         "[atmosphere]\naerosol = \"none\"\n[spectrum]\nwavelengths_nm = [200.0]\n",

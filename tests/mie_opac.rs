@@ -10,6 +10,9 @@
 
 mod common;
 
+use std::path::Path;
+
+use atmosim::job::Job;
 use atmosim::physics::data::{self, Table};
 use atmosim::physics::mie::generate::TABLE_WAVELENGTHS_NM;
 use atmosim::physics::mie::lognormal::Quadrature;
@@ -235,18 +238,19 @@ fn assert_printed_f(got: f64, printed: f64, what: &str) {
 }
 
 /// Every shipped table is there and whole: an optics table per component
-/// with every tabulated humidity at the 14 table wavelengths, and a phase
+/// with every tabulated humidity at the 22 table wavelengths, and a phase
 /// table per component and humidity (no others) with those wavelengths,
 /// the default angles, P11 > 0, |P12|, |P33|, |P34| ≤ P11 and ½∫P11 dμ = 1
-/// to 4e-4. That bound: the integral is exact in the Mie sums (P is
+/// to 6e-4. That bound: the integral is exact in the Mie sums (P is
 /// normalised by the size-averaged C_sca), so the difference is the
 /// trapezoidal rule in Θ on the default grid, which under-resolves the
 /// forward peak of the largest spheres (about 1/x rad wide). Measured
-/// (printed with `--nocapture`): −2.9e-4 for sscm at 99 % and 300 nm
-/// (x_max = 2094), below 1e-4 for every other component (largest micm,
-/// 8.1e-5); printing P11 to 7 digits adds below 1e-6. The bound is the
-/// worst case with a third to spare, small enough to catch a table that
-/// lost its forward peak or a wavelength's normalisation.
+/// (printed with `--nocapture`): −4.4e-4 for sscm at 99 % and 250 nm
+/// (x_max = 2513; −2.9e-4 at 300 nm, x_max = 2094, where the bound was
+/// 4e-4 before the 250 nm tables), below 1e-4 for every other component
+/// (largest inso, 8.9e-5); printing P11 to 7 digits adds below 1e-6. The
+/// bound is the worst case with a third to spare, small enough to catch a
+/// table that lost its forward peak or a wavelength's normalisation.
 #[test]
 fn shipped_tables_are_complete_and_normalised() {
     let angles = default_angles_deg();
@@ -287,7 +291,7 @@ fn shipped_tables_are_complete_and_normalised() {
                 if d.abs() > worst.0.abs() {
                     worst = (d, format!("{c} {rh} % {wl} nm"));
                 }
-                assert!(d.abs() < 4e-4, "{c} {rh} % {wl} nm: 1/2 int P11 dmu - 1 = {d:.2e}");
+                assert!(d.abs() < 6e-4, "{c} {rh} % {wl} nm: 1/2 int P11 dmu - 1 = {d:.2e}");
             }
         }
         println!("{c}: largest |1/2 int P11 dmu - 1| {worst_here:.1e}");
@@ -299,33 +303,73 @@ fn shipped_tables_are_complete_and_normalised() {
 
 /// The shipped optics of the four components libRadtran publishes agree
 /// with its tables (`validation/opac_mie/optprop.txt`) within 0.1 % in
-/// extinction, albedo and asymmetry parameter at every wavelength and
-/// humidity both have: the shipped numbers are this solver's, whose
-/// agreement [`ext_ssa_g_within_0_1_percent_of_libradtran`] measures, and
-/// this checks that they were written faithfully. One number is left out:
-/// soot's albedo at 800 nm, 0.101 % below libRadtran's (the gap of
+/// extinction, albedo and asymmetry parameter at every wavelength from 300
+/// to 800 nm and humidity both have: the shipped numbers are this solver's,
+/// whose agreement [`ext_ssa_g_within_0_1_percent_of_libradtran`] measures,
+/// and this checks that they were written faithfully. One number is left
+/// out: soot's albedo at 800 nm, 0.101 % below libRadtran's (the gap of
 /// [`soot_albedo_within_0_1_percent_of_libradtran`], which grows with
 /// wavelength and crosses 0.1 % there).
 #[test]
 fn shipped_optics_match_libradtran() {
+    let checked = compare_shipped_optics_with_libradtran(|wl| (300.0..=800.0).contains(&wl));
+    // The reference has no suso at 750 nm.
+    assert_eq!(checked.len(), 14 + 14 + 14 * 8 + 13 * 8);
+}
+
+/// Outside 300–800 nm libRadtran's tables hold two of the four
+/// components, inso and soot, at 250, 900 and 1000 nm (waso and suso end
+/// at 300 and 800 nm, and no table reaches past 1000 nm: the shipped
+/// tables' 1250–2500 nm have no libRadtran reference in the repository).
+/// There the shipped optics agree with libRadtran's to the same 0.1 % in
+/// extinction, albedo and g, but for soot's albedo, 0.12 % and 0.14 %
+/// below libRadtran's at 900 and 1000 nm (the gap of
+/// [`soot_albedo_within_0_1_percent_of_libradtran`]), left out rather
+/// than given a wider tolerance. Measured (printed with `--nocapture`):
+/// extinction inso +6.8e-5, +2.1e-4, +3.8e-4 and soot −1.1e-4, −3.5e-4,
+/// −3.5e-4 at 250, 900 and 1000 nm; g within 2.2e-5.
+#[test]
+fn shipped_optics_outside_300_to_800_nm_match_libradtran() {
+    let checked = compare_shipped_optics_with_libradtran(|wl| !(300.0..=800.0).contains(&wl));
+    let expected: Vec<(&str, f64, f64)> = ["inso", "soot"]
+        .iter()
+        .flat_map(|&c| [250.0, 900.0, 1000.0].map(|wl| (c, wl, 0.0)))
+        .collect();
+    assert_eq!(checked, expected);
     let refs = rows("validation/opac_mie/optprop.txt");
-    let mut checked = 0;
+    assert!(
+        refs.iter().all(|r| r[1] <= 1000.0),
+        "a reference past 1000 nm: compare it"
+    );
+}
+
+/// Compares the shipped optics of inso, waso, soot and suso with
+/// libRadtran's at the reference's wavelengths that `select` picks, within
+/// 0.1 % (soot's albedo from 800 nm on left out, see
+/// [`shipped_optics_match_libradtran`]); prints the worst errors and
+/// returns the (component, wavelength, humidity) rows compared. Every
+/// selected reference row must have a shipped row.
+fn compare_shipped_optics_with_libradtran(select: impl Fn(f64) -> bool) -> Vec<(&'static str, f64, f64)> {
+    let refs = rows("validation/opac_mie/optprop.txt");
+    let mut checked = Vec::new();
     for c in ["inso", "waso", "soot", "suso"] {
         let optics = shipped_optics(c);
         let mut worst = [0.0f64; 3];
-        for r in refs.iter().filter(|r| name(r[0]) == c) {
-            let Some(row) = optics.rows.iter().find(|row| row[0] == r[1] && row[1] == r[2]) else {
-                continue;
-            };
+        for r in refs.iter().filter(|r| name(r[0]) == c && select(r[1])) {
+            let row = optics
+                .rows
+                .iter()
+                .find(|row| row[0] == r[1] && row[1] == r[2])
+                .unwrap_or_else(|| panic!("{c}: no shipped row at {} nm and {} %", r[1], r[2]));
             let err = [row[2] / r[3] - 1.0, row[3] / r[4] - 1.0, row[4] / r[5] - 1.0];
             for (w, e) in worst.iter_mut().zip(err) {
                 *w = if e.abs() > w.abs() { e } else { *w };
             }
-            // Soot's albedo at 800 nm is the one number past 0.1 % (by
-            // 1e-5): the open question of
+            // Soot's albedo from 800 nm on is past 0.1 % (by 1e-5 at
+            // 800 nm, 0.15 % at 1000 nm): the open question of
             // `soot_albedo_within_0_1_percent_of_libradtran`, left out here
             // rather than given a wider tolerance.
-            let checked_here = if c == "soot" && r[1] == 800.0 {
+            let checked_here = if c == "soot" && r[1] >= 800.0 {
                 vec![err[0], err[2]]
             } else {
                 err.to_vec()
@@ -337,19 +381,31 @@ fn shipped_optics_match_libradtran() {
                 r[1],
                 sci(&err)
             );
-            checked += 1;
+            println!(
+                "{c} {} % {} nm: relative error of ext, ssa, g = {}",
+                r[2],
+                r[1],
+                sci(&err)
+            );
+            checked.push((c, r[1], r[2]));
         }
         println!("{c}: worst relative error ext, ssa, g: {}", sci(&worst));
     }
-    // The reference has no suso at 750 nm.
-    assert_eq!(checked, 14 + 14 + 14 * 8 + 13 * 8);
+    checked
 }
 
 /// A shipped phase table and optics row are the solver's numbers to the
-/// printed digits: waso at 50 % and 550 nm, computed afresh.
+/// printed digits: waso at 50 % and 550 nm, and at 2000 nm and sscm at
+/// 99 % and 2500 nm (two of the wide range's wavelengths), computed
+/// afresh.
 #[test]
 fn a_shipped_table_is_the_solver_to_the_printed_digits() {
-    let (c, rh, wl) = ("waso", 50.0, 550.0);
+    for (c, rh, wl) in [("waso", 50.0, 550.0), ("waso", 50.0, 2000.0), ("sscm", 99.0, 2500.0)] {
+        shipped_table_is_the_solver(c, rh, wl);
+    }
+}
+
+fn shipped_table_is_the_solver(c: &str, rh: f64, wl: f64) {
     let o = component_optics(c, rh, wl, &default_angles_deg(), Quadrature::default()).unwrap();
     let t = shipped_phase(c, rh);
     let w = t.wavelengths_nm.iter().position(|&w| w == wl).unwrap();
@@ -480,6 +536,67 @@ fn shipped_phase_tables_match_libradtran() {
             worst[0], worst[1], worst[2], worst[3]
         );
     }
+}
+
+/// The default aerosol (continental_average, Mie phase matrices) over the
+/// wide range: a job with every gas on renders the 40 nm bands around
+/// 300 nm (280–320 nm, between the 250 and 350 nm tables) and 2060 nm
+/// (2040–2080 nm, between the 2000 and 2500 nm tables) to finite, positive
+/// radiances with finite, positive standard errors, and its aerosol has a
+/// positive optical depth and an albedo in (0, 1) at both.
+#[test]
+fn the_default_aerosol_renders_at_300_and_2060_nm() {
+    let text = "[atmosphere]\ngases = \"all\"\n[spectrum]\nwavelengths_nm = [300.0, 2060.0]\nband_width_nm = 40.0\n\
+                [sun]\nzenith_deg = 30.0\n[sensor]\ndirections = [[0.0, 0.0], [60.0, 90.0]]\n\
+                [render]\nsamples = 400\nseed = 3\n";
+    let job = Job::parse(text, "job.toml", Path::new(".")).unwrap_or_else(|e| panic!("{e}"));
+    let atm = &job.atmosphere;
+    assert_eq!(atm.wavelengths_nm, [300.0, 2060.0]);
+    for (w, per_layer) in atm.optics.iter().enumerate() {
+        let dz = |i: usize| atm.levels_km[i + 1] - atm.levels_km[i];
+        let tau: f64 = per_layer
+            .iter()
+            .enumerate()
+            .map(|(i, o)| o.sigma_aerosol_ext * dz(i))
+            .sum();
+        let tau_s: f64 = per_layer
+            .iter()
+            .enumerate()
+            .map(|(i, o)| o.sigma_aerosol_sca * dz(i))
+            .sum();
+        println!(
+            "{} nm: aerosol tau {tau:.4}, albedo {:.3}",
+            atm.wavelengths_nm[w],
+            tau_s / tau
+        );
+        assert!(
+            tau > 0.0 && tau_s > 0.0 && tau_s < tau,
+            "{} nm: {tau} {tau_s}",
+            atm.wavelengths_nm[w]
+        );
+    }
+
+    let dir = common::run_job(text, &["render", "job.toml", "--out", "out", "--quiet"]);
+    let radiance = std::fs::read_to_string(dir.path().join("out/radiance.csv")).unwrap();
+    let header: Vec<&str> = radiance.lines().next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let rows: Vec<Vec<f64>> = radiance
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2 * 2);
+    for r in &rows {
+        let (i, se) = (r[col("I")], r[col("I_se")]);
+        println!(
+            "{} nm, view zenith {}: I {i:.4e} +- {se:.1e}",
+            r[col("wavelength_nm")],
+            r[col("view_zenith_deg")]
+        );
+        assert!(i.is_finite() && i > 0.0 && se.is_finite() && se > 0.0, "{r:?}");
+    }
+    let wavelengths: Vec<f64> = rows.iter().map(|r| r[col("wavelength_nm")]).collect();
+    assert_eq!(wavelengths, [300.0, 300.0, 2060.0, 2060.0]);
 }
 
 /// The cost of the largest phase matrices: sscm at 0 % and 300 nm (size

@@ -19,10 +19,13 @@
 //!
 //! Components: all ten spherical OPAC components. inso, waso, soot and suso
 //! take k_ext, ω and g from libRadtran's published MIEV0 tables
-//! (`atmospheres/opac/components`), the other six (ssam, sscm, minm, miam,
-//! micm, mitr) from atmosim's own Mie tables (`atmospheres/opac/mie`,
-//! written by `atmosim opac-tables`), which agree with libRadtran's to 0.1 %
-//! where both exist; every component's phase matrices are atmosim's own.
+//! (`atmospheres/opac/components`) over the wavelengths those cover (inso
+//! and soot 250–1000 nm, waso and suso 300–800 nm) and from atmosim's own
+//! Mie tables (`atmospheres/opac/mie`, written by `atmosim opac-tables`)
+//! outside them; the other six (ssam, sscm, minm, miam, micm, mitr) from
+//! atmosim's tables alone. Those agree with libRadtran's to 0.1 % where
+//! both exist, and span 250–2500 nm, so every mixture covers that range;
+//! every component's phase matrices are atmosim's own.
 //! The spheroidal dust of `desert_spheroids` is not spherical, so a Mie
 //! solver cannot give its optics: that mixture is refused with an error
 //! that names `desert`, its spherical counterpart.
@@ -63,9 +66,17 @@ pub struct Component {
 
 impl Component {
     /// A built-in component by name: libRadtran's published table where
-    /// there is one, else atmosim's own Mie table.
+    /// there is one, extended by atmosim's own Mie table at the wavelengths
+    /// outside it; else atmosim's table alone.
     pub fn builtin(name: &str) -> Option<Result<Component>> {
-        Self::builtin_text(name).map(|t| Self::parse(name, t))
+        let ours = data::builtin(data::OPAC_MIE_OPTICS, name).map(|t| Self::parse(name, t));
+        match data::builtin(data::OPAC_COMPONENTS, name) {
+            Some(published) => Some(Self::parse(name, published).and_then(|c| match ours {
+                Some(ours) => c.extended_by(&ours?),
+                None => Ok(c),
+            })),
+            None => ours,
+        }
     }
 
     /// Whether `name` is a built-in component.
@@ -100,6 +111,45 @@ impl Component {
         Ok(Component {
             name: name.to_string(),
             rh_pct,
+            tables,
+        })
+    }
+
+    /// This table with `other`'s rows at the wavelengths below and above
+    /// its own, humidity by humidity: inside its range this table alone
+    /// (the values and the interpolation between its nodes unchanged),
+    /// between its end and `other`'s next node a linear interpolation from
+    /// one to the other. Both must have the same humidities.
+    pub fn extended_by(&self, other: &Component) -> Result<Component> {
+        if self.rh_pct != other.rh_pct {
+            return Err(Error::data(
+                format!("OPAC component `{}`", self.name),
+                format!(
+                    "the published table's humidities {:?} % differ from atmosim's Mie table's {:?} %",
+                    self.rh_pct, other.rh_pct
+                ),
+            ));
+        }
+        let tables = self
+            .tables
+            .iter()
+            .zip(&other.tables)
+            .map(|((wl, v), (wl_o, v_o))| {
+                let (lo, hi) = (wl[0], wl[wl.len() - 1]);
+                let mut rows: Vec<(f64, [f64; 3])> = wl.iter().copied().zip(v.iter().copied()).collect();
+                rows.extend(
+                    wl_o.iter()
+                        .copied()
+                        .zip(v_o.iter().copied())
+                        .filter(|&(l, _)| l < lo || l > hi),
+                );
+                rows.sort_by(|a, b| a.0.total_cmp(&b.0));
+                rows.into_iter().unzip()
+            })
+            .collect();
+        Ok(Component {
+            name: self.name.clone(),
+            rh_pct: self.rh_pct.clone(),
             tables,
         })
     }
@@ -435,7 +485,7 @@ mod tests {
     fn every_spherical_mixture_loads_and_the_spheroids_are_refused_by_name() {
         for (name, _) in data::OPAC_MIXTURES.iter().filter(|(n, _)| *n != "desert_spheroids") {
             let a = Aerosol::builtin(name).unwrap().unwrap();
-            assert_eq!(a.range_nm().0, (300.0, 800.0), "{name}");
+            assert_eq!(a.range_nm().0, (250.0, 2500.0), "{name}");
         }
         let e = Aerosol::builtin("desert_spheroids").unwrap().unwrap_err().to_string();
         assert!(
@@ -448,6 +498,59 @@ mod tests {
     fn range_is_limited_by_the_narrowest_component() {
         let a = Aerosol::builtin("continental_average").unwrap().unwrap();
         let ((lo, hi), _) = a.range_nm();
-        assert_eq!((lo, hi), (300.0, 800.0));
+        assert_eq!((lo, hi), (250.0, 2500.0));
+        // A component that ends early limits the mixture and is named.
+        let mut short = a.clone();
+        let waso = short.mixture.components.iter().position(|c| c == "waso").unwrap();
+        let text = data::builtin(data::OPAC_COMPONENTS, "waso").unwrap();
+        short.components[waso] = Some(Component::parse("waso", text).unwrap());
+        assert_eq!(short.range_nm(), ((300.0, 800.0), "waso".to_string()));
+    }
+
+    /// The published tables are extended by atmosim's outside their own
+    /// wavelengths only: waso (libRadtran's 300–800 nm) is libRadtran's at
+    /// 300 and 800 nm and atmosim's at 250, 900 and 2500 nm, linear in
+    /// k_ext, k_sca and g·k_sca from libRadtran's 800 nm to atmosim's
+    /// 900 nm; inso (libRadtran's 250–1000 nm) switches after 1000 nm.
+    #[test]
+    fn published_tables_are_extended_by_atmosims_outside_their_range() {
+        let parse = |set, name| Component::parse(name, data::builtin(set, name).unwrap()).unwrap();
+        for (name, rh, ends, outside) in [
+            ("waso", 50.0, [300.0, 800.0], [250.0, 900.0, 2500.0]),
+            ("inso", 0.0, [250.0, 1000.0], [1250.0, 2000.0, 2500.0]),
+        ] {
+            let c = Component::builtin(name).unwrap().unwrap();
+            let (published, ours) = (parse(data::OPAC_COMPONENTS, name), parse(data::OPAC_MIE_OPTICS, name));
+            let i = c.nearest_rh(rh);
+            assert_eq!(c.humidities_pct()[i], rh);
+            assert_eq!(c.range_nm(), (250.0, 2500.0), "{name}");
+            // To the rounding of the interpolation's f = 1 at a table's last node.
+            let same = |x: ComponentOptics, y: ComponentOptics| {
+                let close = |u: f64, v: f64| (u - v).abs() <= 1e-14 * v.abs();
+                close(x.k_ext, y.k_ext) && close(x.k_sca, y.k_sca) && close(x.g, y.g)
+            };
+            for l in ends {
+                let (x, y) = (c.optics(l, i).unwrap(), published.optics(l, i).unwrap());
+                assert!(same(x, y), "{name} {l} nm: {x:?} vs libRadtran's {y:?}");
+            }
+            for l in outside {
+                let (x, y) = (c.optics(l, i).unwrap(), ours.optics(l, i).unwrap());
+                assert!(same(x, y), "{name} {l} nm: {x:?} vs atmosim's {y:?}");
+            }
+            // Between libRadtran's last node and atmosim's next one.
+            let next = *outside.iter().find(|&&l| l > ends[1]).unwrap();
+            let (a, b) = (published.optics(ends[1], i).unwrap(), ours.optics(next, i).unwrap());
+            let f = 0.25;
+            let m = c.optics(ends[1] + f * (next - ends[1]), i).unwrap();
+            assert!((m.k_ext - (a.k_ext + f * (b.k_ext - a.k_ext))).abs() < 1e-9 * a.k_ext);
+            assert!((m.k_sca - (a.k_sca + f * (b.k_sca - a.k_sca))).abs() < 1e-9 * a.k_ext);
+            let gk = a.g * a.k_sca + f * (b.g * b.k_sca - a.g * a.k_sca);
+            assert!((m.g - gk / m.k_sca).abs() < 1e-12, "{name}");
+        }
+        // Inside the published range nothing changed: suso has no 750 nm
+        // row in libRadtran's table and keeps interpolating across it.
+        let suso = Component::builtin("suso").unwrap().unwrap();
+        let published = parse(data::OPAC_COMPONENTS, "suso");
+        assert_eq!(suso.optics(750.0, 1), published.optics(750.0, 1));
     }
 }

@@ -23,11 +23,14 @@ use crate::physics::mie::phase_matrix::default_angles_deg;
 use crate::physics::mie::tables::{PhaseTables, phase_table_name};
 
 /// The wavelengths (nm) of the shipped tables: the OPAC wavelengths from
-/// 300 to 800 nm plus 420, 540 and 620 nm, the grid of the libRadtran
-/// component tables in `atmospheres/opac/components/` (waso, suso) over
-/// the range the renders use.
-pub const TABLE_WAVELENGTHS_NM: [f64; 14] = [
-    300.0, 350.0, 400.0, 420.0, 450.0, 500.0, 540.0, 550.0, 600.0, 620.0, 650.0, 700.0, 750.0, 800.0,
+/// 250 to 2500 nm (the nodes of its refractive indices) plus 420, 540 and
+/// 620 nm, the grid of the libRadtran component tables in
+/// `atmospheres/opac/components/` (waso, suso) between 300 and 800 nm.
+/// They span the wide range's bands (280–2480 nm): 250 nm is the node
+/// below the 280–320 nm band, 2500 nm the one above the 2440–2480 nm band.
+pub const TABLE_WAVELENGTHS_NM: [f64; 22] = [
+    250.0, 300.0, 350.0, 400.0, 420.0, 450.0, 500.0, 540.0, 550.0, 600.0, 620.0, 650.0, 700.0, 750.0, 800.0, 900.0,
+    1000.0, 1250.0, 1500.0, 1750.0, 2000.0, 2500.0,
 ];
 
 /// The directory the tables are shipped in, relative to the repository.
@@ -241,7 +244,7 @@ mod tests {
         assert_eq!(jobs.len(), (4 * 8 + 6) * TABLE_WAVELENGTHS_NM.len());
         assert!(jobs.windows(2).all(|w| w[0].cost() >= w[1].cost()));
         let first = jobs[0];
-        assert_eq!((first.component, first.wavelength_nm), ("sscm", 300.0));
+        assert_eq!((first.component, first.wavelength_nm), ("sscm", 250.0));
     }
 
     #[test]
@@ -280,9 +283,9 @@ mod tests {
         assert_eq!(files.len(), 1 + 8);
         assert_eq!(files[0].name, "waso_optics.txt");
         let rows: Vec<&str> = files[0].text.lines().filter(|l| !l.starts_with('#')).collect();
-        assert_eq!(rows.len(), 8 * 14);
-        assert_eq!(rows[0], "300.0  0  6.100603e+03  0.949265  0.659689");
-        assert_eq!(rows[1], "300.0  50  6.150603e+03  0.949265  0.659689");
+        assert_eq!(rows.len(), 8 * 22);
+        assert_eq!(rows[0], "250.0  0  6.100603e+03  0.949265  0.659689");
+        assert_eq!(rows[1], "250.0  50  6.150603e+03  0.949265  0.659689");
         assert!(
             files[0]
                 .text
@@ -290,9 +293,10 @@ mod tests {
         );
         assert_eq!(files[2].name, "waso_rh50_phase.txt");
         let t = PhaseTables::parse(&files[2].name, &files[2].text).unwrap();
-        assert_eq!((t.rh_pct, t.wavelengths_nm.len()), (50.0, 14));
-        assert_eq!(t.matrices[13].p11[2], 0.8);
+        assert_eq!((t.rh_pct, t.wavelengths_nm.len()), (50.0, 22));
+        assert_eq!(t.matrices[14].p11[2], 0.8);
+        assert_eq!(t.matrices[21].p11[2], 2.5);
         let e = component_files("waso", &results[1..]).unwrap_err().to_string();
-        assert!(e.contains("111 results for 112"), "{e}");
+        assert!(e.contains("175 results for 176"), "{e}");
     }
 }

@@ -265,10 +265,10 @@ mod tests {
         // One wavelength on a node, and the top of the tables.
         let one = AerosolPhases::of_terms(&terms, 3, (540.0, 540.0)).unwrap();
         assert_eq!(one.node(540.0), (one.nodes.0, 0.0));
-        let top = AerosolPhases::of_terms(&terms, 3, (800.0, 800.0)).unwrap();
-        assert_eq!(top.node(800.0), (top.wavelengths_nm.len() - 2, 1.0));
+        let top = AerosolPhases::of_terms(&terms, 3, (2500.0, 2500.0)).unwrap();
+        assert_eq!(top.node(2500.0), (top.wavelengths_nm.len() - 2, 1.0));
         let mut m = PhaseMixture::new(0.0, 0.0, 0.0, 0.0);
-        top.add_to(&mut m, 1, top.node(800.0), 1.0);
+        top.add_to(&mut m, 1, top.node(2500.0), 1.0);
         assert_eq!(m.tabulated(), &[(3, 1.0)]);
     }
 }
