@@ -88,6 +88,9 @@ impl TermOptics {
     }
 }
 
+/// How far (nm) [`Spectrum::may_respond_in`] looks past a band's edges.
+pub const BAND_EDGE_MARGIN_NM: f64 = 1e-6;
+
 /// How a term's response depends on λ (closed set).
 #[derive(Debug, Clone)]
 pub enum Spectrum {
@@ -141,6 +144,23 @@ impl GasResponse {
 }
 
 impl Spectrum {
+    /// Whether the response may be other than zero somewhere in [lo, hi]
+    /// nm: false only for a k-distribution gas's term of one amount
+    /// scaling when no band of that scaling overlaps the interval widened
+    /// by [`BAND_EDGE_MARGIN_NM`] (a wavelength drawn at a band's edge may
+    /// round onto the next band's), so skipping it changes no response.
+    pub fn may_respond_in(&self, (lo_nm, hi_nm): (f64, f64)) -> bool {
+        match self {
+            Spectrum::Gas {
+                gas,
+                response: GasResponse::Bands { table, scaling },
+            } => table
+                .scalings(*gas, (lo_nm - BAND_EDGE_MARGIN_NM, hi_nm + BAND_EDGE_MARGIN_NM))
+                .contains(scaling),
+            _ => true,
+        }
+    }
+
     /// Whether the term adds to extinction (at some wavelength).
     pub fn has_extinction(&self) -> bool {
         match self {

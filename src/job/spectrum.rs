@@ -83,4 +83,11 @@ impl Channel {
     pub fn wavelength(&self, u: f64) -> f64 {
         self.lambda_nm + self.band_width_nm * (u - 0.5)
     }
+
+    /// The band's edges (nm): every wavelength [`Channel::wavelength`]
+    /// gives lies within them (both for one wavelength).
+    pub fn band_nm(&self) -> (f64, f64) {
+        let half = 0.5 * self.band_width_nm;
+        (self.lambda_nm - half, self.lambda_nm + half)
+    }
 }

@@ -65,8 +65,19 @@ impl Scene {
         spectra.responses.resize(self.channels.len() * t, TermOptics::default());
         let lambda = |w: usize| self.channels[w].wavelength(sampler.stratified(w as u64));
         for w in 0..self.channels.len() {
-            self.terms
-                .responses_into(lambda(w), &mut spectra.responses[w * t..(w + 1) * t]);
+            let l = lambda(w);
+            let active = &self.term_active[w * t..(w + 1) * t];
+            for ((o, term), &on) in spectra.responses[w * t..(w + 1) * t]
+                .iter_mut()
+                .zip(&self.terms.terms)
+                .zip(active)
+            {
+                *o = if on {
+                    term.spectrum.response(l)
+                } else {
+                    TermOptics::default()
+                };
+            }
         }
         self.refresh_weights(spectra);
         self.refresh_phase_nodes(spectra, lambda);

@@ -66,6 +66,11 @@ pub struct Scene {
     /// The spectra of monochromatic channels (all paths share them); for
     /// bands, each path has its own.
     pub(super) fixed: Option<ChannelSpectra>,
+    /// Per channel and term (`[channel·terms + term]`): whether the term
+    /// may respond anywhere in the channel's band; a path's drawn spectra
+    /// skip the others, whose response there is zero
+    /// ([`Spectrum::may_respond_in`](crate::atmosphere::spectral_terms::Spectrum::may_respond_in)).
+    pub(super) term_active: Vec<bool>,
     /// The extraterrestrial irradiance radiances are weighted by (absolute
     /// units); `None`: per unit E0.
     pub(super) solar: Option<Arc<SolarSpectrum>>,
@@ -182,6 +187,10 @@ impl Scene {
             (lo.min(c.lambda_nm - half), hi.max(c.lambda_nm + half))
         });
         let aerosol_phases = AerosolPhases::of_terms(&terms, layers, range_nm);
+        let term_active = channels
+            .iter()
+            .flat_map(|c| terms.terms.iter().map(|t| t.spectrum.may_respond_in(c.band_nm())))
+            .collect();
         let mut scene = Scene {
             geometry,
             sun,
@@ -194,6 +203,7 @@ impl Scene {
             basis_len: b,
             basis_sigma,
             fixed: None,
+            term_active,
             solar: None,
             sun_follow: None,
             sun_lobes: None,
