@@ -361,4 +361,40 @@ mod tests {
             }
         }
     }
+
+    /// A term that [`Spectrum::may_respond_in`] leaves out of a band
+    /// responds nothing anywhere in it: every term of the wide range's 55
+    /// bands and of bands straddling two of its 40 nm bands, at 2001
+    /// wavelengths across each band, its edges included. And the gas terms
+    /// are left out somewhere (the point of it).
+    #[test]
+    fn terms_left_out_of_a_band_respond_nothing_in_it() {
+        let centres: Vec<String> = (0..55)
+            .map(|i| format!("{:.1}", 300.0 + 40.0 * i as f64))
+            .chain(["330.0", "945.5", "1379.99", "2455.0"].map(String::from))
+            .collect();
+        let text = format!(
+            "[atmosphere]\naerosol = \"none\"\ngases = \"all\"\n[spectrum]\nwavelengths_nm = [{}]\nband_width_nm = 40.0\n",
+            centres.join(", ")
+        );
+        let job = Job::parse(&text, "wide.toml", Path::new(".")).unwrap();
+        let terms = &job.atmosphere.terms.terms;
+        let mut left_out = 0;
+        for c in &centres {
+            let centre: f64 = c.parse().unwrap();
+            let band = (centre - 20.0, centre + 20.0);
+            for t in terms {
+                if t.spectrum.may_respond_in(band) {
+                    continue;
+                }
+                left_out += 1;
+                for i in 0..=2000 {
+                    let lambda = band.0 + 40.0 * i as f64 / 2000.0;
+                    let r = t.spectrum.response(lambda);
+                    assert_eq!(r, super::TermOptics::default(), "{c} nm band at {lambda} nm");
+                }
+            }
+        }
+        assert!(left_out > 100, "{left_out}");
+    }
 }
