@@ -292,6 +292,19 @@ impl SpectralTerms {
         }
     }
 
+    /// [`SpectralTerms::responses_into`] for the terms where `active` is
+    /// true; zero for the others (terms known to respond nothing at λ,
+    /// [`Spectrum::may_respond_in`]).
+    pub fn active_responses_into(&self, lambda_nm: f64, active: &[bool], out: &mut [TermOptics]) {
+        for ((o, t), &on) in out.iter_mut().zip(&self.terms).zip(active) {
+            *o = if on {
+                t.spectrum.response(lambda_nm)
+            } else {
+                TermOptics::default()
+            };
+        }
+    }
+
     /// The summed responses of `layer` for one channel's `responses`.
     pub fn layer_sum(&self, layer: usize, responses: &[TermOptics]) -> TermOptics {
         self.point_sum(layer, responses, |_| 1.0)

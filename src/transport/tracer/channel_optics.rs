@@ -65,19 +65,11 @@ impl Scene {
         spectra.responses.resize(self.channels.len() * t, TermOptics::default());
         let lambda = |w: usize| self.channels[w].wavelength(sampler.stratified(w as u64));
         for w in 0..self.channels.len() {
-            let l = lambda(w);
-            let active = &self.term_active[w * t..(w + 1) * t];
-            for ((o, term), &on) in spectra.responses[w * t..(w + 1) * t]
-                .iter_mut()
-                .zip(&self.terms.terms)
-                .zip(active)
-            {
-                *o = if on {
-                    term.spectrum.response(l)
-                } else {
-                    TermOptics::default()
-                };
-            }
+            self.terms.active_responses_into(
+                lambda(w),
+                &self.term_active[w * t..(w + 1) * t],
+                &mut spectra.responses[w * t..(w + 1) * t],
+            );
         }
         self.refresh_weights(spectra);
         self.refresh_phase_nodes(spectra, lambda);
