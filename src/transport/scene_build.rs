@@ -122,9 +122,12 @@ impl Job {
             scene.settings.roulette_threshold = DAY_ROULETTE_THRESHOLD;
         }
         // With `auto`, a sun low but up whose connections are at collisions
-        // gets scattering directions drawn in part about it (`sun_peak`).
-        let sun_peak =
-            !sun_aware && r.settings.sun_sampling == SunSampling::Auto && sun_peak_serves(task.sun.zenith_deg);
+        // gets scattering directions drawn in part about it (`sun_peak`),
+        // higher suns too seen from near the ground.
+        let height_km = task.observer_altitude_km - task.atmosphere.levels_km[0];
+        let sun_peak = !sun_aware
+            && r.settings.sun_sampling == SunSampling::Auto
+            && sun_peak_serves(task.sun.zenith_deg, height_km);
         // By day, with `auto`, over columns thin enough that one
         // wavelength's density serves (`DAY_ROULETTE_MAX_COLUMN`), views
         // near the sun connect along their own flight

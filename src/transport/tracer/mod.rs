@@ -45,8 +45,8 @@
 //! (one-sample MIS over channels and components). With the sun set
 //! (sun-aware connections, spherical geometry) 3 directions in 10 come
 //! from a lobe tabulated per layer toward the sunlit air instead
-//! (`sun_lobe`), and with the sun 10° to 25° up 1 in 10 from a lobe about
-//! the sun (`sun_peak`); the weight's denominator is then the mixture of
+//! (`sun_lobe`), and with the sun 10° to 25° up (to 50° seen from within
+//! 1 km of the ground) 1 in 10 from a lobe about the sun (`sun_peak`); the weight's denominator is then the mixture of
 //! both densities (`direction_guide`). Where the lobe toward the sunlit
 //! air is used, 3 in 10 directions up from a reflecting ground come from
 //! its ground row instead of the cosine, weighed the same way.
@@ -113,6 +113,7 @@ mod vertex;
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene};
 pub use sun_lobe::SUN_LOBE_SHARE;
 pub use sun_peak::{
-    SUN_PEAK_G, SUN_PEAK_MAX_ELEVATION_DEG, SUN_PEAK_MIN_ELEVATION_DEG, SUN_PEAK_SHARE, sun_peak_serves,
+    SUN_PEAK_G, SUN_PEAK_LOW_OBSERVER_KM, SUN_PEAK_LOW_OBSERVER_MAX_ELEVATION_DEG, SUN_PEAK_MAX_ELEVATION_DEG,
+    SUN_PEAK_MIN_ELEVATION_DEG, SUN_PEAK_SHARE, sun_peak_serves,
 };
 pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};

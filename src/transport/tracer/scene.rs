@@ -597,21 +597,32 @@ mod tests {
     }
 
     #[test]
-    fn auto_draws_about_the_sun_from_10_to_25_degrees_only() {
-        // The lobe about the sun with `auto` and the sun 10° to 25° up;
-        // below, the lobe toward the sunlit air where it serves (both
-        // never); above, and with `sun_sampling = "collision"`, neither.
-        for (elevation, peak) in [
-            (-4.2, false),
-            (2.0, false),
-            (9.5, false),
-            (10.0, true),
-            (17.0, true),
-            (25.0, false),
-            (60.0, false),
+    fn auto_draws_about_the_sun_from_10_to_25_degrees_or_to_50_seen_from_low() {
+        // The lobe about the sun with `auto` and the sun 10° to 25° up, or
+        // to 50° from within 1 km of the ground; below, the lobe toward
+        // the sunlit air where it serves (both never); above, and with
+        // `sun_sampling = "collision"`, neither.
+        for (elevation, altitude_km, peak) in [
+            (-4.2, 0.0, false),
+            (2.0, 0.0, false),
+            (9.5, 0.0, false),
+            (10.0, 0.0, true),
+            (17.0, 10.0, true),
+            (25.0, 0.0, true),
+            (25.0, 2.0, false),
+            (45.0, 1.0, true),
+            (45.0, 5.0, false),
+            (60.0, 0.0, false),
         ] {
-            let scene = job(elevation).scene(0);
-            assert_eq!(scene.sun_peak.is_some(), peak, "sun {elevation}°");
+            let text = format!(
+                "[sun]\nelevation_deg = {elevation}\n[spectrum]\nwavelengths_nm = [500.0]\n\
+                 [observer]\naltitude_km = {altitude_km:?}\n[sensor]\ntype = \"directions\"\n\
+                 directions = [[0.0, 0.0]]\n[render]\nsamples = 1\n"
+            );
+            let scene = Job::parse(&text, "test.toml", FsPath::new("."))
+                .expect("a valid job")
+                .scene(0);
+            assert_eq!(scene.sun_peak.is_some(), peak, "sun {elevation}°, {altitude_km} km");
             assert!(
                 !(scene.sun_peak.is_some() && scene.sun_lobes.is_some()),
                 "sun {elevation}°"
