@@ -90,6 +90,9 @@ def instructions(binary, folder, case, seed):
     """Instructions of `binary` rendering `case` at its full paths,
     extrapolated from callgrind counts at 1/40 and 1/20 of them."""
     text = with_seed(open(os.path.join(folder, case + ".toml")).read(), seed)
+    if with_samples(text, 1 / 40) == with_samples(text, 1 / 20):
+        sys.exit(f"{case}: 1/40 and 1/20 of its samples are the same count: "
+                 "no per-path cost to extrapolate; give the case more samples")
     counts = []
     for fraction in (1 / 40, 1 / 20):
         path = os.path.join(folder, f".cg_{case}.toml")
@@ -112,6 +115,12 @@ def instructions(binary, folder, case, seed):
         counts.append((fraction, total))
         os.remove(path)
     (f1, c1), (f2, c2) = counts
+    if c2 <= c1:
+        # Twice the paths must cost more: else the per-path part is lost in
+        # the start-up's (a noise target that stops early, too few paths),
+        # and a line through the two would say nothing (or less than zero).
+        sys.exit(f"{case}: {binary} executed {c2} instructions at {f2:g} of the paths and {c1} at "
+                 f"{f1:g}: no per-path cost to extrapolate; give the case more samples")
     slope = (c2 - c1) / (f2 - f1)
     return c1 + slope * (1.0 - f1)
 
