@@ -17,6 +17,7 @@
 //! - `atmosim eval --queries` gives finite, positive radiance in the first,
 //!   a middle (940 nm) and the last channel, and the runtime's documented
 //!   0 outside the channels (below 280 nm, at 2480 nm and above).
+//! - Renders whose gases differ are not one grid: the fit refuses them.
 
 mod common;
 
@@ -31,7 +32,7 @@ use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
-use common::run_ok;
+use common::{atmosim, run_ok};
 
 /// The 55 band centres, 300 to 2460 nm.
 fn wide_bands() -> Vec<f64> {
@@ -310,4 +311,40 @@ fn a_55_band_grid_is_rendered_fitted_and_evaluated() {
         .map(|l| l.rsplit(',').nth(3).unwrap())
         .collect();
     assert_eq!(first[0], first[1], "280 and 300 nm share the first channel");
+}
+
+/// Renders with gases and without are two atmospheres, not one grid.
+#[test]
+fn renders_with_other_gases_are_not_one_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    for (gases, elevation) in [("all", "[10.0]"), ("none", "[30.0]")] {
+        std::fs::write(
+            root.join(format!("{gases}.toml")),
+            render_job(
+                gases,
+                &[940.0, 980.0],
+                elevation,
+                "[8, 4]",
+                2,
+                &format!("renders/{gases}"),
+            ),
+        )
+        .unwrap();
+        run_ok(root, &["render", &format!("{gases}.toml"), "-q"]);
+    }
+    std::fs::write(
+        root.join("fit.toml"),
+        "renders = [\"renders/all\", \"renders/none\"]\nout = \"sky.dat\"\n",
+    )
+    .unwrap();
+    let out = atmosim()
+        .current_dir(root)
+        .args(["fit", "fit.toml", "-q"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("atmosphere") && err.contains("gases none"), "{err}");
+    assert!(!root.join("sky.dat").exists());
 }
