@@ -13,7 +13,7 @@ use crate::physics::kdistribution::Gas;
 const CELLS_PER_NM: f64 = 20.0;
 
 /// The gases with terms in `atm`, in report order.
-fn gases(atm: &Atmosphere) -> Vec<Gas> {
+pub fn gases(atm: &Atmosphere) -> Vec<Gas> {
     Gas::ALL
         .into_iter()
         .filter(|g| {
@@ -23,6 +23,18 @@ fn gases(atm: &Atmosphere) -> Vec<Gas> {
                 .any(|t| matches!(t.spectrum, Spectrum::Gas { gas, .. } if gas == *g))
         })
         .collect()
+}
+
+/// The wide range's gases of `atm` in one line, as the image attributes
+/// and the fitter's consistency check state them: `none`, or their names
+/// and the profile's precipitable water and column-mean CO₂.
+pub fn gases_text(atm: &Atmosphere) -> String {
+    let names: Vec<&str> = gases(atm).iter().map(|g| g.name()).collect();
+    match (names.is_empty(), atm.gas_columns) {
+        (true, _) => "none".into(),
+        (false, Some((pw, co2))) => format!("{}; precipitable water {pw:.4} cm, CO2 {co2:.2} ppm", names.join(" ")),
+        (false, None) => names.join(" "),
+    }
 }
 
 /// The optical depth of `gas` in `layer` for the channel at λ with band

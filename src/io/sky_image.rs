@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use crate::atmosphere::report::gases_text;
 use crate::error::Result;
 use crate::film::ground_view::{GROUND_VIEW_SAMPLES, traced_rows};
 use crate::film::image::{ImageLayer, SkyImage};
@@ -198,6 +199,7 @@ fn attributes(job: &Job, task: &Task, camera: &Camera, non_finite: u64) -> Vec<(
         ("profile".into(), profile),
         ("aerosol".into(), aerosol),
         ("aerosol_phase".into(), aerosol_phase.into()),
+        ("gases".into(), gases_text(&task.atmosphere)),
         ("planet_radius_km".into(), format!("{}", job.planet.radius_km)),
         ("top_km".into(), format!("{}", job.planet.top_km)),
         ("geometry".into(), format!("{:?}", job.planet.geometry)),

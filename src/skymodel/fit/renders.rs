@@ -247,7 +247,14 @@ fn task_info(dir: &Path) -> Result<TaskInfo> {
             }
         },
         job: (get("job_hash")?, get("job_file")?),
-        atmosphere: format!("profile {}, aerosol {}", get("profile")?, get("aerosol")?),
+        // An image written before the `gases` attribute existed counts as
+        // without gases.
+        atmosphere: format!(
+            "profile {}, aerosol {}, gases {}",
+            get("profile")?,
+            get("aerosol")?,
+            attrs.get("gases").map_or("none", String::as_str)
+        ),
     })
 }
 
