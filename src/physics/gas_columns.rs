@@ -122,7 +122,9 @@ mod tests {
 
     /// Precipitable water of the six AFGL atmospheres (Anderson et al.
     /// 1986) against their water columns as MODTRAN lists them for its
-    /// model atmospheres (g cm⁻², two decimals): US standard 1.42,
+    /// model atmospheres (MODTRAN 6's Table 1 in atm-cm, converted, two
+    /// decimals; `atmosim validate gas_columns` compares the columns
+    /// themselves, water and O₂): US standard 1.42,
     /// tropical 4.12, mid-latitude summer 2.92, mid-latitude winter 0.85,
     /// subarctic summer 2.08, subarctic winter 0.42. The tolerance is half
     /// a unit in their last place (0.005 cm); the water above 100 km is
