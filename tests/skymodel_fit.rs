@@ -18,14 +18,16 @@ use std::path::Path;
 use atmosim::job::transmittance::Grid;
 use atmosim::physics::solar::SolarSpectrum;
 use atmosim::sensor::camera::{Camera, Hemisphere, Projection};
-use atmosim::skymodel::angles::{SunPosition, ViewAngles};
+use atmosim::skymodel::angles::ViewAngles;
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
 use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
-use common::synthetic_sky::{SyntheticSky, sqrt_t, write_render as write_synthetic, write_transmittance_table};
+use common::synthetic_sky::{
+    SyntheticSky, ground_query, sqrt_t, write_render as write_synthetic, write_transmittance_table,
+};
 use common::{atmosim, run_ok};
 
 const WAVELENGTHS: [f64; 2] = [500.0, 600.0];
@@ -129,24 +131,7 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
             for j in 0..img.height {
                 for i in 0..img.width {
                     let v = img.direction(i, j);
-                    let a = ViewAngles::of(
-                        v,
-                        SunPosition {
-                            elevation,
-                            azimuth: 0.0,
-                        },
-                        0.0,
-                    );
-                    let p = Parameters {
-                        theta: a.theta,
-                        gamma: a.gamma,
-                        shadow: a.shadow,
-                        zero: a.zero,
-                        elevation,
-                        altitude_m: 0.0,
-                        visibility_km: 50.0,
-                        albedo: ALBEDO,
-                    };
+                    let (a, p) = ground_query(v, elevation, 50.0, ALBEDO);
                     let lambda = WAVELENGTHS[c];
                     let from_file = model.sky_radiance(&p, lambda);
                     let double: f64 = own
@@ -328,27 +313,13 @@ fn up_and_down_fisheyes_fit_like_a_sphere() {
     )
     .unwrap();
     let elevation = 20f64.to_radians();
-    let sun = SunPosition {
-        elevation,
-        azimuth: 0.0,
-    };
     let mut worst = 0.0f64;
     let peak = sky(0.0, std::f64::consts::FRAC_PI_2 - elevation, 0);
     for e in (-80..=80).step_by(10) {
         for az in (0..360).step_by(15) {
             let (e, az) = ((e as f64).to_radians(), (az as f64).to_radians());
             let v = glam::DVec3::new(e.cos() * az.cos(), e.cos() * az.sin(), e.sin());
-            let a = ViewAngles::of(v, sun, 0.0);
-            let p = Parameters {
-                theta: a.theta,
-                gamma: a.gamma,
-                shadow: a.shadow,
-                zero: a.zero,
-                elevation,
-                altitude_m: 0.0,
-                visibility_km: 50.0,
-                albedo: ALBEDO,
-            };
+            let (a, p) = ground_query(v, elevation, 50.0, ALBEDO);
             worst = worst.max((model.sky_radiance(&p, 500.0) - sky(a.gamma, a.theta, 0)).abs() / peak);
         }
     }

@@ -25,13 +25,13 @@ use std::path::Path;
 
 use atmosim::io::exr::read_exr;
 use atmosim::physics::solar::SolarSpectrum;
-use atmosim::skymodel::angles::{SunPosition, ViewAngles};
 use atmosim::skymodel::dataset::Dataset;
 use atmosim::skymodel::fit::breaks::{emph_breaks, eval_piecewise, sun_breaks, zenith_breaks};
 use atmosim::skymodel::fit::image_fit::{fit_prepared, prepare_layer};
 use atmosim::skymodel::fit::settings::FitSettings;
 use atmosim::skymodel::fit::{render_layers, renders};
 use atmosim::skymodel::runtime::{Model, Parameters};
+use common::synthetic_sky::ground_query;
 use common::{atmosim, run_ok};
 
 /// The 55 band centres, 300 to 2460 nm.
@@ -171,24 +171,7 @@ fn a_55_band_grid_is_rendered_fitted_and_evaluated() {
             let (mut worst_ratio, mut worst_error, mut peak) = (0.0f64, 0.0f64, 0.0f64);
             for j in 0..image.height {
                 for i in 0..image.width {
-                    let a = ViewAngles::of(
-                        image.direction(i, j),
-                        SunPosition {
-                            elevation,
-                            azimuth: 0.0,
-                        },
-                        0.0,
-                    );
-                    let p = Parameters {
-                        theta: a.theta,
-                        gamma: a.gamma,
-                        shadow: a.shadow,
-                        zero: a.zero,
-                        elevation,
-                        altitude_m: 0.0,
-                        visibility_km: 40.0,
-                        albedo: ALBEDO,
-                    };
+                    let (a, p) = ground_query(image.direction(i, j), elevation, 40.0, ALBEDO);
                     let from_file = model.sky_radiance(&p, bands[c]);
                     let emph = eval_piecewise(&eb, &own.radiance.emph, a.zero);
                     let sum: f64 = components

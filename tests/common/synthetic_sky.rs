@@ -10,6 +10,8 @@ use atmosim::io::sky_image::layer_name;
 use atmosim::job::transmittance::Grid;
 use atmosim::sensor::camera::Camera;
 use atmosim::skymodel::angles::{SunPosition, ViewAngles};
+use atmosim::skymodel::runtime::Parameters;
+use glam::DVec3;
 use rand::{Rng, SeedableRng};
 
 /// What a synthetic render holds.
@@ -146,4 +148,29 @@ pub fn write_transmittance_table(dir: &Path, wavelengths_nm: &[f64]) {
         ("observer_altitude_km".to_string(), "0".to_string()),
     ];
     write_exr(&dir.join("transmittance.exr"), n_d, n_a, channels, &attrs).unwrap();
+}
+
+/// The runtime's query for view direction `v` from the ground with the sun
+/// `elevation` (rad) up at azimuth 0: the view's angles and the
+/// parameters at `visibility_km` and `albedo`.
+pub fn ground_query(v: DVec3, elevation: f64, visibility_km: f64, albedo: f64) -> (ViewAngles, Parameters) {
+    let a = ViewAngles::of(
+        v,
+        SunPosition {
+            elevation,
+            azimuth: 0.0,
+        },
+        0.0,
+    );
+    let p = Parameters {
+        theta: a.theta,
+        gamma: a.gamma,
+        shadow: a.shadow,
+        zero: a.zero,
+        elevation,
+        altitude_m: 0.0,
+        visibility_km,
+        albedo,
+    };
+    (a, p)
 }
