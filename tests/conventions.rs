@@ -32,6 +32,7 @@ use atmosim::sampling::sampler::Sampler;
 use atmosim::sampling::stream::{Estimate, Render, StreamKey};
 use atmosim::sensor::camera::{self, Camera, Hemisphere, Projection};
 use atmosim::sensor::direction::Direction;
+use atmosim::transport::tracer::ViewRay;
 use glam::{DQuat, DVec3};
 
 // Helpers
@@ -878,7 +879,14 @@ fn s10_a_sample_is_a_function_of_its_keys() {
         for i in 0..200 {
             let mut s = Sampler::new(&[77, 0, d as u64, i]);
             let v = row.direction.vector();
-            scene.radiance_sample(0.0, v, row.direction.meridian_axis(), &mut s, &mut out);
+            scene.radiance_sample(
+                0.0,
+                v,
+                row.direction.meridian_axis(),
+                ViewRay::Repeated,
+                &mut s,
+                &mut out,
+            );
             by_hand.add(&out[0]);
         }
         assert_eq!(row.tally, by_hand, "direction {d}");
@@ -905,7 +913,7 @@ fn s10_thread_count_changes_no_bit_and_shards_merge_to_rounding() {
     // its own and then merged, equals the whole to 1e-12 (relative).
     let samples = 3 * BLOCK + 100;
     let (v, e1) = (dir(50.0, 140.0).vector(), dir(50.0, 140.0).meridian_axis());
-    let f = |s: &mut Sampler, out: &mut [Stokes]| scene.radiance_sample(0.0, v, e1, s, out);
+    let f = |s: &mut Sampler, out: &mut [Stokes]| scene.radiance_sample(0.0, v, e1, ViewRay::Repeated, s, out);
     let keys = StreamKey::new(9, Render::channel(0, 0), Estimate::Direction(0));
     let whole = tally(samples, keys, 1, f)[0];
     let mut first = vec![Tally::default()];

@@ -4,7 +4,7 @@
 use crate::film::tally::{Tally, tally};
 use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::direction::Direction;
-use crate::transport::tracer::Scene;
+use crate::transport::tracer::{Scene, ViewRay};
 
 /// Renders each direction with `samples` paths for every channel and
 /// albedo of the scene: `[channel][albedo][direction]`. `seed` and
@@ -27,7 +27,7 @@ pub fn render_directions_all(
                 samples,
                 StreamKey::new(seed, render, Estimate::Direction(d)),
                 scene.value_count(),
-                |s, out| scene.radiance_sample(altitude_km, v, e1, s, out),
+                |s, out| scene.radiance_sample(altitude_km, v, e1, ViewRay::Repeated, s, out),
             )
         })
         .collect();

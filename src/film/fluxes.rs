@@ -10,7 +10,7 @@ use crate::film::tally::{Tally, tally};
 use crate::polarization::stokes::{Stokes, meridian_frame};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::stream::{Estimate, Render, StreamKey};
-use crate::transport::tracer::Scene;
+use crate::transport::tracer::{Scene, ViewRay};
 
 /// Fluxes at the observer level per unit E0 (libRadtran's edir, edn, eup).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,7 +54,7 @@ pub fn render_fluxes_all(scene: &Scene, altitude_km: f64, samples: u64, seed: u6
 /// hemisphere, for every channel and albedo of the scene, into `out`.
 pub fn flux_sample(scene: &Scene, altitude_km: f64, up: bool, s: &mut Sampler, out: &mut [Stokes]) {
     let (v, e1) = flux_direction(up, s);
-    scene.radiance_sample(altitude_km, v, e1, s, out);
+    scene.radiance_sample(altitude_km, v, e1, ViewRay::Changing, s, out);
     to_irradiance(out);
 }
 

@@ -19,7 +19,7 @@ use crate::polarization::stokes_frame::{StokesFrame, carry};
 use crate::sampling::sampler::Sampler;
 use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::camera::{Camera, PixelFilter};
-use crate::transport::tracer::Scene;
+use crate::transport::tracer::{Scene, ViewRay};
 
 /// One image layer: a wavelength and an albedo, mean and standard error of
 /// I, Q, U, V per pixel (row-major, row 0 at the top).
@@ -184,6 +184,17 @@ pub struct PixelSampling<'a> {
     pub pilot: bool,
 }
 
+impl PixelSampling<'_> {
+    /// Whether a pixel's samples repeat one view ray (through its centre)
+    /// or each take their own (jittered over the pixel).
+    pub fn view_ray(&self) -> ViewRay {
+        match self.filter {
+            PixelFilter::Box => ViewRay::Changing,
+            PixelFilter::Center => ViewRay::Repeated,
+        }
+    }
+}
+
 /// Renders every pixel: `radiance(direction, e1, sampler, values)` writes a sample's
 /// `count` values referred to the axis `e1`; returns tallies `[value][pixel]` and the count
 /// of non-finite samples. `progress` is called as pixels finish (from
@@ -300,8 +311,9 @@ pub fn render_layers(
     altitude_km: f64,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Vec<Tally>>, u64) {
+    let ray = sampling.view_ray();
     render_pixels(sampling, scene.value_count(), progress, |v, e1, s, out| {
-        scene.radiance_sample(altitude_km, v, e1, s, out)
+        scene.radiance_sample(altitude_km, v, e1, ray, s, out)
     })
 }
 

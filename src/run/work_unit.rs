@@ -25,7 +25,7 @@ use crate::film::tally::{self, BLOCK, Tally};
 use crate::job::{Job, Sensor, Task};
 use crate::run::layout::{EstimateKind, Layout, Stage, UnitState};
 use crate::sampling::stream::Channels;
-use crate::transport::tracer::Scene;
+use crate::transport::tracer::{Scene, ViewRay};
 
 /// How a run is steered: when to checkpoint, when to stop, where progress goes.
 pub struct Control<'a> {
@@ -236,7 +236,7 @@ fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::
             let dir = directions[direction];
             let (v, e1) = (dir.vector(), dir.axis(job.render.stokes_frame, sun));
             tally::tally_blocks(work, layout.samples_of(e), est.key, tallies, |s, out| {
-                scene.radiance_sample(altitude_km, v, e1, s, out)
+                scene.radiance_sample(altitude_km, v, e1, ViewRay::Repeated, s, out)
             })
         }
         (Sensor::Image(_), EstimateKind::GroundView { .. }) => {
@@ -244,7 +244,7 @@ fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::
             // same unpolarised radiance (any axis will do).
             let (v, e1) = (glam::DVec3::NEG_Z, glam::DVec3::X);
             tally::tally_blocks(work, layout.samples_of(e), est.key, tallies, |s, out| {
-                scene.radiance_sample(altitude_km, v, e1, s, out)
+                scene.radiance_sample(altitude_km, v, e1, ViewRay::Repeated, s, out)
             })
         }
         (Sensor::Image(camera), EstimateKind::Pixels { .. }) => {
@@ -261,7 +261,8 @@ fn radiance_wave(scene: &Scene, context: &RunContext, e: usize, work: std::ops::
                 render: est.key.render,
                 pilot: est.stage == Stage::Pilot,
             };
-            let radiance = |v, e1, s: &mut _, out: &mut _| scene.radiance_sample(altitude_km, v, e1, s, out);
+            let ray = sampling.view_ray();
+            let radiance = |v, e1, s: &mut _, out: &mut _| scene.radiance_sample(altitude_km, v, e1, ray, s, out);
             match counts {
                 Some(counts) => image::render_counted_into(&sampling, counts, work, tallies, est.values, radiance),
                 None => image::render_pixels_into(&sampling, work, tallies, est.values, &|_| {}, radiance),

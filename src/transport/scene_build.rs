@@ -130,8 +130,8 @@ impl Job {
             && sun_peak_serves(task.sun.zenith_deg, height_km);
         // By day, with `auto`, over columns thin enough that one
         // wavelength's density serves (`DAY_ROULETTE_MAX_COLUMN`), views
-        // near the sun connect along their own flight
-        // (`Scene::with_sun_aware_view`).
+        // connect along their own flight: every repeated view ray, a
+        // changing one near the sun (`Scene::with_sun_aware_view`).
         let view_sun_aware = view_sun_aware_possible && !sun_aware && thin;
         let scene = if sun_aware {
             scene.with_sun_aware()

@@ -17,6 +17,7 @@ use crate::job::Job;
 use crate::polarization::stokes::{Stokes, meridian_frame};
 use crate::sampling::stream::{Estimate, Render, StreamKey};
 use crate::sensor::direction::Direction;
+use crate::transport::tracer::ViewRay;
 
 /// The results at one output altitude.
 #[derive(Debug, Clone)]
@@ -93,7 +94,7 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                             view_zenith_deg: theta,
                             azimuth_deg: phi,
                         };
-                        scene.radiance_sample(z, d.vector(), d.meridian_axis(), s, out)
+                        scene.radiance_sample(z, d.vector(), d.meridian_axis(), ViewRay::Changing, s, out)
                     },
                 )[0]
             })
@@ -113,7 +114,7 @@ pub fn run(input: &UvspecInput, job: &Job) -> crate::Result<UvspecResult> {
                     let sin_t = (1.0 - u[0] * u[0]).max(0.0).sqrt();
                     let phi = 2.0 * PI * u[1];
                     let v = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-                    scene.radiance_sample(z, v, meridian_frame(v, phi).0, s, out);
+                    scene.radiance_sample(z, v, meridian_frame(v, phi).0, ViewRay::Changing, s, out);
                     for x in out.iter_mut() {
                         *x = Stokes::new(0.5 * x.0[0], 0.0, 0.0, 0.0);
                     }

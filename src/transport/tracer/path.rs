@@ -77,7 +77,8 @@ pub(super) struct Path {
     pub(super) roulette_threshold: f64,
     /// Whether the sensor's own flight connects to the sun along the whole
     /// flight where the scene's sun-aware connections serve the view alone
-    /// ([`SunFollow::view_only`]: views near the sun by day).
+    /// ([`SunFollow::view_only`]: by day, repeated view rays and changing
+    /// ones near the sun; [`ViewRay`](super::trace::ViewRay)).
     pub(super) view_sun_aware: bool,
 }
 
@@ -170,8 +171,8 @@ pub(super) struct SunFollow {
     /// centre wavelength) at [`AEROSOL_ANGLES`] scattering angles from 0
     /// to 180° (`[(layer·K + k)·AEROSOL_ANGLES + a]`); empty otherwise.
     pub(super) aerosol_p11: Vec<f64>,
-    /// Only the sensor's own flight (scattering order 0) of a view near
-    /// the sun ([`Path::view_sun_aware`]) connects along the flight; every
+    /// Only the sensor's own flight (scattering order 0) of a view that
+    /// asks for it ([`Path::view_sun_aware`]) connects along the flight; every
     /// other flight connects at its collision (`Scene::with_sun_aware_view`).
     pub(super) view_only: bool,
     /// The view's own flight's density: the sun part's share and the most

@@ -26,16 +26,20 @@ use super::sun_lobe::{
     LocalFrame, SUN_LOBE_BINS, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes,
 };
 use super::sun_peak::SunPeak;
+use super::trace::ViewRay;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::{SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, reflects};
 
-/// Views within this angle (°) of the sun connect along their own flight
-/// by day (`Scene::with_sun_aware_view`). Paired on `bench --suite` with
-/// every view's flight so connected against none (2026-11-29,
-/// docs/performance.md): FOM of I 4.4× at 15° from a sun 45° up, 7–9× at
-/// 3–5° and 224× at the sun itself (Mie, sun zenith 60°), 1.2–1.5× at
-/// 20–30°, but 0.4–0.6× beyond 35°; a path with the view so connected
-/// costs about 2.6 times one without.
+/// By day, a view ray that changes from sample to sample (a jittered
+/// pixel) connects along its own flight within this angle (°) of the sun
+/// (`Scene::with_sun_aware_view`); a repeated one does wherever it looks.
+/// Paired on `bench --suite` with every view's flight so connected against
+/// none (2026-11-29, docs/performance.md): FOM of I 4.4× at 15° from a sun
+/// 45° up, 7–9× at 3–5° and 224× at the sun itself (Mie, sun zenith 60°),
+/// 1.2–1.5× at 20–30°, but 0.4–0.6× beyond 35°, a path with the view so
+/// connected costing about 2.6 times one without: the density's building
+/// at every sample, which a repeated ray does once (docs/design-sun.md,
+/// "The view's own flight").
 pub const VIEW_SUN_AWARE_MAX_ANGLE_DEG: f64 = 18.0;
 
 /// The widest wavelength cell of the direct irradiance's band average (nm).
@@ -264,11 +268,12 @@ impl Scene {
         self
     }
 
-    /// Sun-aware connections along the sensor's own flight alone where
-    /// the view is within [`VIEW_SUN_AWARE_MAX_ANGLE_DEG`] of the sun: the
-    /// aerosol's forward peak makes single scattering along the view most
-    /// of such a view's light and of its variance, and the density then
-    /// follows it almost exactly ([`VIEW_SUN_AWARE_SHARE`] over segments).
+    /// Sun-aware connections along the sensor's own flight alone: every
+    /// repeated view ray's, and a changing one's within
+    /// [`VIEW_SUN_AWARE_MAX_ANGLE_DEG`] of the sun (the aerosol's forward
+    /// peak makes single scattering along the view most of such a view's
+    /// light and of its variance). The density follows single scattering
+    /// almost exactly ([`VIEW_SUN_AWARE_SHARE`] over segments).
     /// Every other flight connects at its collision; no lobe toward the
     /// sunlit air.
     ///
@@ -284,9 +289,11 @@ impl Scene {
 
     /// The least cosine between a view and the sun at which its own flight
     /// connects along the flight (above 1, never, unless every flight
-    /// does).
-    pub(super) fn view_sun_aware_min_cos(&self) -> f64 {
+    /// does): where only the view's flight does, any angle for a repeated
+    /// view ray, within [`VIEW_SUN_AWARE_MAX_ANGLE_DEG`] for a changing one.
+    pub(super) fn view_sun_aware_min_cos(&self, ray: ViewRay) -> f64 {
         match &self.sun_follow {
+            Some(f) if f.view_only && ray == ViewRay::Repeated => -1.0,
             Some(f) if f.view_only => VIEW_SUN_AWARE_MAX_ANGLE_DEG.to_radians().cos(),
             Some(_) => -1.0,
             None => 2.0,
@@ -634,10 +641,35 @@ mod tests {
     }
 
     #[test]
+    fn by_day_repeated_view_rays_connect_along_their_flight_anywhere_changing_ones_near_the_sun() {
+        use super::super::trace::ViewRay;
+        let day = |sampling: &str| {
+            let text = format!(
+                "[atmosphere]\nprofile = \"us_standard\"\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
+                 wavelengths_nm = [540.0]\n[render]\nsamples = 1\nsun_sampling = \"{sampling}\"\n"
+            );
+            Job::parse(&text, "test.toml", FsPath::new("."))
+                .expect("a valid job")
+                .scene(0)
+        };
+        let auto = day("auto");
+        assert!(auto.sun_follow.as_ref().is_some_and(|f| f.view_only));
+        assert_eq!(auto.view_sun_aware_min_cos(ViewRay::Repeated), -1.0);
+        let near = super::VIEW_SUN_AWARE_MAX_ANGLE_DEG.to_radians().cos();
+        assert_eq!(auto.view_sun_aware_min_cos(ViewRay::Changing), near);
+        // Without sun-aware connections no view connects along its
+        // flight; with them on every flight, every view does.
+        let collision = day("collision");
+        assert!(collision.view_sun_aware_min_cos(ViewRay::Repeated) > 1.0);
+        assert!(collision.view_sun_aware_min_cos(ViewRay::Changing) > 1.0);
+        let aware = day("sun_aware");
+        assert_eq!(aware.view_sun_aware_min_cos(ViewRay::Changing), -1.0);
+    }
+
+    #[test]
     fn the_view_density_kept_between_samples_gives_the_samples_built_afresh() {
-        // By day the view within 18° of the sun connects along its own
-        // flight, from a density each thread keeps while the view ray
-        // stays the same. Every sample, with the density kept from the
+        // By day a repeated view ray connects along its own flight, from
+        // a density each thread keeps while the view ray stays the same. Every sample, with the density kept from the
         // previous one (of the same or of another direction) or built
         // afresh, is the same bit for bit.
         use crate::polarization::stokes::Stokes;
@@ -645,6 +677,7 @@ mod tests {
         use crate::sensor::direction::Direction;
 
         use super::super::path::WORK;
+        use super::super::trace::ViewRay;
 
         let text = "[atmosphere]\nprofile = \"us_standard\"\n[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\n\
                     top_km = 2.0\ntau = 0.2\nssa = 0.95\ng = 0.7\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
@@ -668,7 +701,7 @@ mod tests {
             }
             let key = StreamKey::new(3, Render::channel(0, 0), Estimate::Direction(d));
             let (v, e1) = (views[d].vector(), views[d].meridian_axis());
-            scene.radiance_sample(0.0, v, e1, &mut key.sampler(i), &mut out);
+            scene.radiance_sample(0.0, v, e1, ViewRay::Repeated, &mut key.sampler(i), &mut out);
             out[0].0
         };
         let mut kept = 0;
@@ -684,7 +717,7 @@ mod tests {
                 kept += usize::from(WORK.with_borrow(|w| w.path.view_key.is_some()));
             }
         }
-        // The views near the sun used a density (and kept it).
+        // The views used a density (and kept it).
         assert!(kept > 300, "{kept}");
     }
 }

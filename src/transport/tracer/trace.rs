@@ -20,13 +20,38 @@ use super::spectra::ChannelSpectra;
 use super::sun_lobe::{GROUND_LOBE_SHARE, SunLobe};
 use super::vertex::{cosine_hemisphere, quarter_turn, reference_albedo, scattering_frame};
 
+/// Whether a view's ray is the same from one sample to the next (every
+/// sample of a direction, of a pixel's centre, straight down) or changes
+/// with each (a pixel's jittered directions, a flux's hemisphere, an
+/// azimuthal average). By day a repeated ray connects to the sun along its
+/// own flight wherever it looks, from a density built once and kept
+/// (`Path::view_density`); a changing one only within
+/// [`VIEW_SUN_AWARE_MAX_ANGLE_DEG`](super::scene::VIEW_SUN_AWARE_MAX_ANGLE_DEG)
+/// of the sun, where the connection pays for building the density at every
+/// sample (docs/design-sun.md, "The view's own flight").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewRay {
+    Repeated,
+    Changing,
+}
+
 impl Scene {
     /// One sample of the diffuse Stokes radiance arriving at the observer at
     /// `altitude_km` from viewing direction `view` (unit, observer frame),
     /// referred to the axis `e1` (unit, ⟂ `view`; e.g. the meridian axis,
     /// see [`crate::polarization::stokes_frame`]), at every channel and albedo, into
     /// `out[channel·albedos + albedo]` ([`Scene::value_count`] values).
-    pub fn radiance_sample(&self, altitude_km: f64, view: DVec3, e1: DVec3, sampler: &mut Sampler, out: &mut [Stokes]) {
+    /// `ray` says whether the caller asks for the same view sample after
+    /// sample.
+    pub fn radiance_sample(
+        &self,
+        altitude_km: f64,
+        view: DVec3,
+        e1: DVec3,
+        ray: ViewRay,
+        sampler: &mut Sampler,
+        out: &mut [Stokes],
+    ) {
         WORK.with_borrow_mut(|work| {
             let Work { path, spare, spectra } = work;
             let spectra = match &self.fixed {
@@ -44,7 +69,7 @@ impl Scene {
             // A path that starts on the ground (looking down from it) keeps
             // the scene's threshold; one with a view flight scales it there.
             path.roulette_threshold = self.settings.roulette_threshold;
-            path.view_sun_aware = view.dot(self.sun.direction) >= self.view_sun_aware_min_cos();
+            path.view_sun_aware = view.dot(self.sun.direction) >= self.view_sun_aware_min_cos(ray);
             if spectra.sigma.is_empty() {
                 path.hero_sigma.clear();
                 path.hero_sigma
