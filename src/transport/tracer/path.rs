@@ -64,12 +64,13 @@ pub(super) struct Path {
     /// (`[point·channels + channel]`; `tracking`).
     pub(super) residual_t: Vec<f64>,
     pub(super) residual_tr: Vec<f64>,
-    /// The sun-aware density of the sensor's own flight, and the ray and
-    /// scene it was built for with whether it can be drawn from: kept on
-    /// the thread from sample to sample (a direction's samples all fly
-    /// the same view ray, and the density depends on nothing else), never
-    /// copied into a branch.
+    /// The sun-aware density of the sensor's own flight, its segments,
+    /// and the ray and scene they were built for with whether it can be
+    /// drawn from: kept on the thread from sample to sample (a direction's
+    /// samples all fly the same view ray, and they depend on nothing
+    /// else), never copied into a branch.
     pub(super) view_density: FlightDensity,
+    pub(super) view_segments: Vec<Segment>,
     pub(super) view_key: Option<(ViewDensityKey, bool)>,
     /// The roulette's threshold for this path: the scene's, scaled by how
     /// likely the sensor's view is to scatter at all

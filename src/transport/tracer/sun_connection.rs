@@ -139,23 +139,28 @@ impl Scene {
         if follow.view_only && !(path.order == 0 && path.view_sun_aware) {
             return false;
         }
-        if !self.flight_segments(path, ray) {
-            return false;
-        }
-        if path.segments.is_empty() {
-            return true;
-        }
         // The sensor's own flight with a density exact per segment and
-        // little defence, kept from sample to sample while the view ray
-        // stays the same (every sample of a direction, or of a pixel's
-        // centre); the scattered flights' coarser and more defensive.
+        // little defence, kept with the flight's segments from sample to
+        // sample while the view ray stays the same (every sample of a
+        // direction, or of a pixel's centre); the scattered flights'
+        // coarser and more defensive.
         let point = if path.order == 0 {
             let (share, pieces) = follow.view_density;
             let key = ViewDensityKey::new(follow.id, ray, pieces);
             let drawable = match path.view_key {
-                Some((k, drawable)) if k == key => drawable,
+                Some((k, drawable)) if k == key => {
+                    path.segments.clone_from(&path.view_segments);
+                    drawable
+                }
                 _ => {
+                    if !self.flight_segments(path, ray) {
+                        return false;
+                    }
+                    if path.segments.is_empty() {
+                        return true;
+                    }
                     let drawable = self.build_sun_density(follow, &path.segments, &mut path.view_density, ray, pieces);
+                    path.view_segments.clone_from(&path.segments);
                     path.view_key = Some((key, drawable));
                     drawable
                 }
@@ -165,6 +170,12 @@ impl Scene {
             }
             path.view_density.sample(&path.segments, share, sampler)
         } else {
+            if !self.flight_segments(path, ray) {
+                return false;
+            }
+            if path.segments.is_empty() {
+                return true;
+            }
             if !self.build_sun_density(follow, &path.segments, &mut path.density, ray, PIECE_SEGMENTS) {
                 return true;
             }
