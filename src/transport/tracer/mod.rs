@@ -109,6 +109,7 @@ mod sun_peak;
 mod trace;
 mod tracking;
 mod vertex;
+mod view_ray;
 
 pub use scene::{DIRECT_CELL_NM, MediumSettings, Scene, VIEW_SUN_AWARE_MAX_ANGLE_DEG};
 pub use sun_lobe::SUN_LOBE_SHARE;
@@ -116,5 +117,5 @@ pub use sun_peak::{
     SUN_PEAK_G, SUN_PEAK_LOW_OBSERVER_KM, SUN_PEAK_LOW_OBSERVER_MAX_ELEVATION_DEG, SUN_PEAK_MAX_ELEVATION_DEG,
     SUN_PEAK_MIN_ELEVATION_DEG, SUN_PEAK_SHARE, sun_peak_serves,
 };
-pub use trace::ViewRay;
 pub use tracking::{AUTO_MIN_LAYERS, MERGE_SPREAD};
+pub use view_ray::ViewRay;

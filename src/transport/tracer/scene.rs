@@ -26,9 +26,9 @@ use super::sun_lobe::{
     LocalFrame, SUN_LOBE_BINS, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes,
 };
 use super::sun_peak::SunPeak;
-use super::trace::ViewRay;
 use super::tracking::{AUTO_MIN_LAYERS, Tracking};
 use super::vertex::{SUN_AWARE_SHARE, VIEW_PIECE_SEGMENTS, VIEW_SUN_AWARE_SHARE, reflects};
+use super::view_ray::ViewRay;
 
 /// By day, a view ray that changes from sample to sample (a jittered
 /// pixel) connects along its own flight within this angle (°) of the sun
@@ -642,7 +642,7 @@ mod tests {
 
     #[test]
     fn by_day_repeated_view_rays_connect_along_their_flight_anywhere_changing_ones_near_the_sun() {
-        use super::super::trace::ViewRay;
+        use super::super::view_ray::ViewRay;
         let day = |sampling: &str| {
             let text = format!(
                 "[atmosphere]\nprofile = \"us_standard\"\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
@@ -677,7 +677,7 @@ mod tests {
         use crate::sensor::direction::Direction;
 
         use super::super::path::WORK;
-        use super::super::trace::ViewRay;
+        use super::super::view_ray::ViewRay;
 
         let text = "[atmosphere]\nprofile = \"us_standard\"\n[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\n\
                     top_km = 2.0\ntau = 0.2\nssa = 0.95\ng = 0.7\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
