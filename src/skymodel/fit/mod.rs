@@ -17,6 +17,7 @@ pub mod reproject;
 pub mod settings;
 pub mod smooth;
 pub mod transmittance;
+pub mod weighted;
 
 use std::f64::consts::PI;
 

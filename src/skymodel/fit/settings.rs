@@ -38,9 +38,13 @@ pub struct FitSettings {
     pub emph_breaks: usize,
     /// σ of the Gaussian blur of the (γ, α) table, in nodes (seed: 1; 0 = none).
     pub blur_sigma: f64,
-    /// Rounds of imputing the (γ, α) table's filled cells from its low-rank
-    /// decomposition (0: the plain SVD of the filled table).
+    /// Sweeps of the weighted decomposition's alternating solve (0: the
+    /// plain SVD of the filled table).
     pub impute_iterations: usize,
+    /// The weight of a (γ, α) cell filled harmonically (no sky has it)
+    /// relative to a cell with data, in the decomposition (1: the plain
+    /// SVD of the filled table).
+    pub fill_weight: f64,
     /// Whether a table's cells that its own sky lacks are borrowed from the
     /// neighbouring sun elevations' tables where they have them (the
     /// supplement's dilation) before the rest is filled harmonically.
@@ -62,6 +66,7 @@ struct RawFit {
     emph_breaks: Option<i64>,
     blur_sigma: Option<f64>,
     impute_iterations: Option<i64>,
+    fill_weight: Option<f64>,
     neighbour_fill: Option<bool>,
 }
 
@@ -165,7 +170,8 @@ impl FitSettings {
             zenith_breaks,
             emph_breaks,
             blur_sigma: real("blur_sigma", raw.blur_sigma, 1.0, 20.0)?,
-            impute_iterations: count("impute_iterations", raw.impute_iterations, 20, 0, 1000)?,
+            impute_iterations: count("impute_iterations", raw.impute_iterations, 50, 0, 1000)?,
+            fill_weight: real("fill_weight", raw.fill_weight, 1e-6, 1.0)?,
             neighbour_fill: raw.neighbour_fill.unwrap_or(true),
         })
     }
@@ -180,7 +186,7 @@ impl FitSettings {
         }
         s.push_str(&format!(
             "out = {}\nrank = {}\npolarisation_rank = {}\ntransmittance_rank = {}\nresolution = {}\n\
-             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\nimpute_iterations = {}\nneighbour_fill = {}\n",
+             sun_breaks = {}\nzenith_breaks = {}\nemph_breaks = {}\nblur_sigma = {:?}\nimpute_iterations = {}\nfill_weight = {:?}\nneighbour_fill = {}\n",
             q(&self.out),
             self.rank,
             self.polarisation_rank,
@@ -191,6 +197,7 @@ impl FitSettings {
             self.emph_breaks,
             self.blur_sigma,
             self.impute_iterations,
+            self.fill_weight,
             self.neighbour_fill
         ));
         s
@@ -211,6 +218,7 @@ mod tests {
             (275, 205, 118, 361)
         );
         assert_eq!(s.blur_sigma, 1.0);
+        assert_eq!((s.impute_iterations, s.fill_weight), (50, 1e-6));
         assert_eq!(s.transmittance, None);
         assert!(s.neighbour_fill);
         // The provenance text reads back as the same settings.
@@ -225,6 +233,8 @@ mod tests {
             ("renders = \"r\"\nout = \"x\"\nrank = 0\n", "rank"),
             ("renders = \"r\"\nout = \"x\"\nresolution = 3\n", "resolution"),
             ("renders = \"r\"\nout = \"x\"\nblur_sigma = -1.0\n", "blur_sigma"),
+            ("renders = \"r\"\nout = \"x\"\nfill_weight = 2.0\n", "fill_weight"),
+            ("renders = \"r\"\nout = \"x\"\nfill_weight = -1e-4\n", "fill_weight"),
             ("renders = []\nout = \"x\"\n", "renders"),
             ("renders = \"r\"\nout = \"x\"\nrnak = 3\n", "rnak"),
             ("renders = \"r\"\nout = \"x\"\nneighbour_fill = 1\n", "neighbour_fill"),
