@@ -171,11 +171,17 @@ def test_an_eval_image_reads_back_as_the_model(dataset, tmp_path):
     assert list(img.wavelength.values) == [450.0, 550.0]
     assert set(img.data_vars) == {"sky_radiance", "polarisation", "transmittance"}
     assert img.attrs["albedo"] == 0.5
-    # The zenith (the centre of the fisheye) and the corner outside it.
+    # The corner outside the circle, and pixels across the circle at
+    # their centres' directions (CONVENTIONS.md: equidistant, ρ = θ/90°,
+    # φ = atan2(dx, dy), image up the sun's azimuth, here 0).
     assert img.sky_radiance.values[1, 0, 0] == 0.0
-    zenith = atmosim.SkyModel(dataset).sky_radiance([0, 0, 0], [0, 0, 1], 20.0, 0.0, 40.0, 0.5, 550.0)
-    centre = img.sky_radiance.values[1, 7:9, 7:9]
-    assert np.all(np.abs(centre / zenith - 1) < 0.1)
+    model = atmosim.SkyModel(dataset)
+    for j, i in [(7, 7), (7, 8), (8, 7), (8, 8), (2, 8), (8, 13), (12, 4)]:
+        dx, dy = (i + 0.5 - 8) / 8, (8 - (j + 0.5)) / 8
+        theta, phi = np.radians(90 * np.hypot(dx, dy)), np.arctan2(dx, dy)
+        d = [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
+        want = model.sky_radiance([0, 0, 0], d, 20.0, 0.0, 40.0, 0.5, 550.0)
+        assert abs(img.sky_radiance.values[1, j, i] / want - 1) < 1e-6, (j, i)
 
 
 def test_the_fit_table_reads_back(dataset):
