@@ -19,6 +19,7 @@
 
 mod common;
 
+use atmosim::film::tally::Tally;
 use common::{Comparison, directions, job, render, samples};
 
 const HG_LAYERS: &str = "[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\ntop_km = 2.0\ntau = 0.2\nssa = 0.95\n\
@@ -59,7 +60,7 @@ fn near_sun_views_by_day_agree_with_connections_at_collisions() {
         agreement.add_tallies(name, &a, &b);
         // Near the sun the view's connection along its flight is the far
         // better estimate of I (a test that it is used at all).
-        let rel = |t: &atmosim::film::tally::Tally| t.standard_error()[0] / t.mean()[0];
+        let rel = |t: &Tally| t.standard_error()[0] / t.mean()[0];
         assert!(
             rel(&a[1]) < 0.5 * rel(&b[1]),
             "{name}: 3° from the sun, relative errors {} (auto) and {} (collision)",
@@ -77,40 +78,61 @@ fn by_day_directions_far_from_the_sun_estimate_single_scattering_almost_exactly(
     // relative standard deviation of I of 0.0014-0.0036 along the flight
     // against 0.21-0.52 at collisions.
     let n = samples(4000);
-    let dirs = directions(&[(0.0, 0.0), (60.0, 180.0), (80.0, 90.0), (45.0, 40.0)]);
-    let order1 = "max_scattering_order = 1\n";
-    let auto = job(&job_text(HG_LAYERS, 45.0, "auto", order1, 3));
-    let collision = job(&job_text(HG_LAYERS, 45.0, "collision", order1, 4));
-    let a = render(&auto, 0.0, &dirs, n);
-    let b = render(&collision, 0.0, &dirs, n);
-    let mut agreement = Comparison::default();
-    agreement.add_tallies("single scattering, sun 45° up", &a, &b);
-    agreement.assert_no_outlier("single scattering by day, auto against collision");
-    let per_path = |t: &atmosim::film::tally::Tally| t.standard_error()[0] / t.mean()[0] * (n as f64).sqrt();
+    let dirs = [(0.0, 0.0), (60.0, 180.0), (80.0, 90.0), (45.0, 40.0)];
+    let (a, b) = single_scattering_against_collisions(45.0, "auto", &dirs, n, "sun 45° up");
     for (d, (a, b)) in a.iter().zip(&b).enumerate() {
         assert!(
-            per_path(a) < 0.05 && per_path(b) > 0.1,
+            per_path_relative_sd(a, n) < 0.05 && per_path_relative_sd(b, n) > 0.1,
             "direction {d}: per-path relative standard deviations {} (auto), {} (collision)",
-            per_path(a),
-            per_path(b)
+            per_path_relative_sd(a, n),
+            per_path_relative_sd(b, n)
         );
     }
+}
+
+/// Single scattering alone (HG layers, 540 nm) seen from the ground in
+/// `dirs` with `sampling` and with connections at collisions, other
+/// seeds, `n` paths each; asserts that they agree (Šidák 1 %) and returns
+/// both.
+fn single_scattering_against_collisions(
+    sun_zenith_deg: f64,
+    sampling: &str,
+    dirs: &[(f64, f64)],
+    n: u64,
+    name: &str,
+) -> (Vec<Tally>, Vec<Tally>) {
+    let dirs = directions(dirs);
+    let order1 = "max_scattering_order = 1\n";
+    let a = render(
+        &job(&job_text(HG_LAYERS, sun_zenith_deg, sampling, order1, 3)),
+        0.0,
+        &dirs,
+        n,
+    );
+    let b = render(
+        &job(&job_text(HG_LAYERS, sun_zenith_deg, "collision", order1, 4)),
+        0.0,
+        &dirs,
+        n,
+    );
+    let mut agreement = Comparison::default();
+    agreement.add_tallies(&format!("single scattering, {name}"), &a, &b);
+    agreement.assert_no_outlier(&format!("single scattering, {name}: {sampling} against collisions"));
+    (a, b)
+}
+
+/// The relative standard deviation of I per path of a tally of `n` paths.
+fn per_path_relative_sd(t: &Tally, n: u64) -> f64 {
+    t.standard_error()[0] / t.mean()[0] * (n as f64).sqrt()
 }
 
 #[test]
 fn the_view_flight_estimates_single_scattering_almost_exactly_with_the_sun_low() {
     let n = samples(4000);
-    let dirs = directions(&[(80.0, 0.0), (60.0, 90.0), (0.0, 0.0)]);
-    let order1 = "max_scattering_order = 1\n";
-    let aware = job(&job_text(HG_LAYERS, 88.0, "sun_aware", order1, 3));
-    let collision = job(&job_text(HG_LAYERS, 88.0, "collision", order1, 4));
-    let a = render(&aware, 0.0, &dirs, n);
-    let b = render(&collision, 0.0, &dirs, n);
-    let mut agreement = Comparison::default();
-    agreement.add_tallies("single scattering, sun 2° up", &a, &b);
-    agreement.assert_no_outlier("single scattering, sun-aware view against collisions");
+    let dirs = [(80.0, 0.0), (60.0, 90.0), (0.0, 0.0)];
+    let (a, _) = single_scattering_against_collisions(88.0, "sun_aware", &dirs, n, "sun 2° up");
     for (d, t) in a.iter().enumerate() {
-        let per_path = t.standard_error()[0] / t.mean()[0] * (n as f64).sqrt();
+        let per_path = per_path_relative_sd(t, n);
         assert!(
             per_path < 0.05,
             "direction {d}: per-path relative standard deviation {per_path}"
