@@ -373,6 +373,46 @@ impl FlightDensity {
             / nk as f64
     }
 
+    /// Followed channel `k`'s approximate sunlit integral,
+    /// ∫ c̄·e^(−τ)·e^(−τ̃_sun) dt over the flight; 0 where it cannot be
+    /// drawn from.
+    pub fn sun_integral_of(&self, k: usize) -> f64 {
+        if k < self.followed && self.totals[k].2 {
+            self.totals[k].0 * (-self.shifts[k]).exp()
+        } else {
+            0.0
+        }
+    }
+
+    /// The density, per unit length at distance `t` along the flight, of
+    /// followed channel `k`'s sun-following part alone (what
+    /// [`FlightDensity::sample`] would draw from with that channel alone
+    /// and share 1): over the flight it integrates to 1 where the channel
+    /// can be drawn from, and it is 0 where it cannot or off the flight.
+    pub fn sun_pdf_of(&self, k: usize, t: f64) -> f64 {
+        if k >= self.followed || !self.totals[k].2 {
+            return 0.0;
+        }
+        let nk = self.followed;
+        let j = self.pieces.partition_point(|p| p.t1 < t);
+        let Some(p) = self.pieces.get(j) else {
+            return 0.0;
+        };
+        let len = p.t1 - p.t0;
+        if t < p.t0 || len <= 0.0 {
+            return 0.0;
+        }
+        let tk = &self.terms[j * nk + k];
+        let u = (t - p.t0) / len;
+        let de = tk.tau + tk.sun1 - tk.sun0 - tk.gc;
+        let inside = if de.abs() < 1e-9 {
+            1.0
+        } else {
+            de * (-de * u).exp() / -(-de).exp_m1()
+        };
+        tk.sun_integral / self.totals[k].0 * inside / len
+    }
+
     /// Draws a point along the flight of `segments` (those of `build`),
     /// with share `alpha` of the sun-following part; `None` when no
     /// channel can be drawn from or the density vanishes there.
@@ -867,6 +907,70 @@ mod tests {
             assert_eq!((h.sun0, h.sun1, h.gc), (sun0, sun1, -1.0));
             assert!((h.c - c).abs() < 1e-12, "{} against {c}", h.c);
         }
+    }
+
+    /// A channel's sun part alone ([`FlightDensity::sun_pdf_of`]) is a
+    /// density: over the eight-layer flight with two followed channels and
+    /// pieces of four (c far from flat inside them) it integrates to 1
+    /// (Simpson's rule on 4000 steps per piece), it is 0 off the flight,
+    /// and with one channel and share 1 it is the density `sample` draws
+    /// with; [`FlightDensity::sun_integral_of`] is `sunlit_integral`'s
+    /// term.
+    #[test]
+    fn a_channels_sun_part_alone_is_a_density() {
+        let (levels, sigma, ray, segments) = eight_layer_flight();
+        let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
+        let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+        let sun = DVec3::new(-0.6, 0.0, 0.8);
+        let profiles = [sigma.clone(), extinct.clone()];
+        let depth = SunDepth::of_profiles(&levels, &profiles, &Geometry::PlaneParallel, sun, false);
+        let optics = |_: usize, s: &Segment| {
+            let len = s.t1 - s.t0;
+            [(sigma[s.layer] * len, c[s.layer]), (extinct[s.layer] * len, c[s.layer])]
+        };
+        let mut density = FlightDensity::default();
+        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        for k in 0..2 {
+            let mut total = 0.0;
+            for p in &density.pieces {
+                let steps = 4000;
+                let h = (p.t1 - p.t0) / steps as f64;
+                // Each piece's own ends (a piece's start is its
+                // predecessor's end, where the density jumps).
+                let f = |i: usize| density.sun_pdf_of(k, (p.t0 + i as f64 * h).clamp(p.t0 + 1e-9 * h, p.t1 - 1e-9 * h));
+                let mut sum = f(0) + f(steps);
+                for i in 1..steps {
+                    sum += if i % 2 == 1 { 4.0 } else { 2.0 } * f(i);
+                }
+                total += sum * h / 3.0;
+            }
+            assert!((total - 1.0).abs() < 1e-9, "channel {k}: {total}");
+            assert_eq!(density.sun_pdf_of(k, segments[7].t1 + 0.1), 0.0);
+            assert_eq!(density.sun_pdf_of(k, -0.1), 0.0);
+        }
+        assert_eq!(density.sun_pdf_of(2, 1.0), 0.0);
+        // One channel: the draws' own density.
+        let depth = SunDepth::of_profiles(
+            &levels,
+            std::slice::from_ref(&sigma),
+            &Geometry::PlaneParallel,
+            sun,
+            false,
+        );
+        let one = |_: usize, s: &Segment| {
+            let mut o = [(0.0, 0.0); MAX_FOLLOWED];
+            o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
+            o
+        };
+        assert!(density.build(&ray, &segments, 1, 4, one, &depth, sun));
+        let mut sampler = Sampler::new(&[3]);
+        for _ in 0..1000 {
+            let p = density.sample(&segments, 1.0, &mut sampler).expect("a point");
+            let q = density.sun_pdf_of(0, p.t);
+            assert!((q / p.pdf - 1.0).abs() < 1e-12, "{q} against {}", p.pdf);
+        }
+        assert!((density.sun_integral_of(0) / density.sunlit_integral() - 1.0).abs() < 1e-15);
+        assert_eq!(density.sun_integral_of(1), 0.0);
     }
 
     #[test]

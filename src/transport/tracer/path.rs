@@ -14,7 +14,7 @@ use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::phase_mixture::PhaseMixture;
 use crate::polarization::stokes::{Mueller, PhaseMatrix, Stokes};
 use crate::sampling::sampler::Sampler;
-use crate::transport::flight_density::FlightDensity;
+use crate::transport::flight_density::{FlightDensity, MAX_FOLLOWED};
 use crate::transport::sun_depth::SunDepth;
 
 use super::spectra::ChannelSpectra;
@@ -72,6 +72,19 @@ pub(super) struct Path {
     pub(super) view_density: FlightDensity,
     pub(super) view_segments: Vec<Segment>,
     pub(super) view_key: Option<(ViewDensityKey, bool)>,
+    /// With it, for a polarised view ray that repeats: the density that
+    /// follows the followed channels' Rayleigh single scattering along the
+    /// same flight (c̄ = σ_Rayleigh), the control variate of Q and U
+    /// (`Scene::polarization_control`), and whether it was built.
+    pub(super) view_polarization: FlightDensity,
+    pub(super) view_polarized: bool,
+    /// The control variate's Z·v per followed channel for the view's
+    /// frame axis it was computed for (`Scene::polarization_control`).
+    pub(super) view_control: [Stokes; MAX_FOLLOWED],
+    pub(super) view_control_e1: Option<DVec3>,
+    /// Whether the sensor's view ray repeats from sample to sample
+    /// ([`ViewRay::Repeated`](super::view_ray::ViewRay)).
+    pub(super) view_repeats: bool,
     /// The roulette's threshold for this path: the scene's, scaled by how
     /// likely the sensor's view is to scatter at all
     /// ([`Path::set_view_roulette`]).
@@ -183,6 +196,16 @@ pub(super) struct SunFollow {
     /// [`VIEW_SUN_AWARE_SHARE`]: super::vertex::VIEW_SUN_AWARE_SHARE
     /// [`VIEW_PIECE_SEGMENTS`]: super::vertex::VIEW_PIECE_SEGMENTS
     pub(super) view_density: (f64, usize),
+}
+
+/// What a flight's sun-following density follows: the sunlit single
+/// scattering of I (σ_s·P11 at the sun's centre), or Rayleigh's alone
+/// (σ_Rayleigh; the control variate of Q and U,
+/// `Scene::polarization_control`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Shape {
+    Sunlit,
+    Rayleigh,
 }
 
 /// The scattering angles of [`SunFollow::aerosol_p11`]: every 0.25°.

@@ -20,7 +20,7 @@ use crate::transport::medium::density_steps;
 use crate::transport::sun_depth::SunDepth;
 
 use super::aerosol_phase::AerosolPhases;
-use super::path::{AEROSOL_ANGLES, PIECE_SEGMENTS, Path, SunFollow};
+use super::path::{AEROSOL_ANGLES, PIECE_SEGMENTS, Path, Shape, SunFollow};
 use super::spectra::{Basis, ChannelSpectra};
 use super::sun_lobe::{
     LocalFrame, SUN_LOBE_BINS, SUN_LOBE_SUN_UP_MAX_COLUMN, SUN_LOBE_SUN_UP_MAX_ELEVATION_DEG, SunLobes,
@@ -457,7 +457,14 @@ impl Scene {
             if !self.flight_segments(&mut path, &ray) || path.segments.is_empty() {
                 return 0.0;
             }
-            if !self.build_sun_density(follow, &path.segments, &mut path.density, &ray, PIECE_SEGMENTS) {
+            if !self.build_sun_density(
+                follow,
+                &path.segments,
+                &mut path.density,
+                &ray,
+                PIECE_SEGMENTS,
+                Shape::Sunlit,
+            ) {
                 return 0.0;
             }
             if ground {

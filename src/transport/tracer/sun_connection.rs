@@ -8,12 +8,12 @@ use crate::geometry::ray::{Ray, Segment, WalkEnd};
 use crate::geometry::shell::Geometry;
 use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
-use crate::polarization::stokes::Stokes;
+use crate::polarization::stokes::{Mueller, Stokes};
 use crate::sampling::sampler::Sampler;
 use crate::transport::flight_density::FlightDensity;
 use crate::transport::free_flight::FlightEnd;
 
-use super::path::{PIECE_SEGMENTS, Path, SunFollow, ViewDensityKey};
+use super::path::{PIECE_SEGMENTS, Path, Shape, SunFollow, ViewDensityKey};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
@@ -159,7 +159,26 @@ impl Scene {
                     if path.segments.is_empty() {
                         return true;
                     }
-                    let drawable = self.build_sun_density(follow, &path.segments, &mut path.view_density, ray, pieces);
+                    let drawable = self.build_sun_density(
+                        follow,
+                        &path.segments,
+                        &mut path.view_density,
+                        ray,
+                        pieces,
+                        Shape::Sunlit,
+                    );
+                    path.view_polarized = drawable && self.settings.polarized && path.view_repeats;
+                    path.view_control_e1 = None;
+                    if path.view_polarized {
+                        self.build_sun_density(
+                            follow,
+                            &path.segments,
+                            &mut path.view_polarization,
+                            ray,
+                            pieces,
+                            Shape::Rayleigh,
+                        );
+                    }
                     path.view_segments.clone_from(&path.segments);
                     path.view_key = Some((key, drawable));
                     drawable
@@ -168,7 +187,11 @@ impl Scene {
             if !drawable {
                 return true;
             }
-            path.view_density.sample(&path.segments, share, sampler)
+            let point = path.view_density.sample(&path.segments, share, sampler);
+            if path.view_polarized {
+                self.polarization_control(path, follow, ray, point.map(|p| (p.t, p.pdf)));
+            }
+            point
         } else {
             if !self.flight_segments(path, ray) {
                 return false;
@@ -176,7 +199,14 @@ impl Scene {
             if path.segments.is_empty() {
                 return true;
             }
-            if !self.build_sun_density(follow, &path.segments, &mut path.density, ray, PIECE_SEGMENTS) {
+            if !self.build_sun_density(
+                follow,
+                &path.segments,
+                &mut path.density,
+                ray,
+                PIECE_SEGMENTS,
+                Shape::Sunlit,
+            ) {
                 return true;
             }
             path.density.sample(&path.segments, SUN_AWARE_SHARE, sampler)
@@ -189,10 +219,11 @@ impl Scene {
     }
 
     /// The sun-following density along the flight along `ray` over its
-    /// `segments` into `density`, in pieces of at most `pieces` segments;
-    /// whether any followed channel can be drawn from. It depends on the
-    /// ray and the scene alone (the followed channels' optics at their
-    /// centre wavelengths, the sun's centre), not on the path.
+    /// `segments` into `density`, in pieces of at most `pieces` segments,
+    /// following `shape`; whether any followed channel can be drawn from.
+    /// It depends on the ray and the scene alone (the followed channels'
+    /// optics at their centre wavelengths, the sun's centre), not on the
+    /// path.
     pub(super) fn build_sun_density(
         &self,
         follow: &SunFollow,
@@ -200,6 +231,7 @@ impl Scene {
         density: &mut FlightDensity,
         ray: &Ray,
         pieces: usize,
+        shape: Shape,
     ) -> bool {
         let depth = &follow.depth;
         let nk = follow.channels.len();
@@ -228,6 +260,12 @@ impl Scene {
                     let depolarization = c.rayleigh_depolarization;
                     rayleigh[k] = (depolarization, PhaseFunction::Rayleigh { depolarization }.p11(cos0));
                 }
+                if shape == Shape::Rayleigh {
+                    // Its phase matrix at the sun's centre is the same
+                    // all along the flight.
+                    *ok = (c.sigma_t * len, c.sigma_rayleigh);
+                    continue;
+                }
                 let mut sca = c.sigma_rayleigh * rayleigh[k].1;
                 if c.sigma_aerosol_sca > 0.0 && tabulated {
                     sca += c.sigma_aerosol_sca * follow.aerosol_p11_at(seg.layer, k, nk, angle);
@@ -243,6 +281,55 @@ impl Scene {
             o
         };
         density.build(ray, segments, nk, pieces, optics, depth, s0)
+    }
+
+    /// A control variate for Q and U of the view flight's single
+    /// scattering, for each followed channel w (k-th followed).
+    ///
+    /// Its point, at distance t with density q(t) (`point`; `None` when
+    /// none was drawn), estimates w's single scattering along the flight,
+    /// and q follows I's: near the sun that is the aerosol's forward peak,
+    /// while Q and U come from Rayleigh scattering, spread higher up the
+    /// column. The Rayleigh part of Q and U along the flight is about
+    /// g(t) = Z·q_R(t)·v: q_R the density that follows σ_R·e^(−τ)·e^(−τ̃_sun)
+    /// (`view_polarization`, normalised), Z its integral, v the Stokes
+    /// column of Rayleigh's matrix at the sun's centre with I left out
+    /// (the same at every point of the flight), over 4π. Adding
+    /// Z·v·(1 − q_R(t)/q(t)) has expectation zero, whatever Z and v, since
+    /// q > 0 wherever q_R > 0 (its flight part) and q_R integrates to 1:
+    /// Q and U stay unbiased and lose the variance of their Rayleigh
+    /// single scattering's shape; I is untouched.
+    fn polarization_control(&self, path: &mut Path, follow: &SunFollow, ray: &Ray, point: Option<(f64, f64)>) {
+        // Z·v per followed channel depends on the view alone: computed
+        // once per view ray and frame.
+        if path.view_control_e1 != Some(path.frame_e1) {
+            let nk = follow.channels.len();
+            let k_in = -self.sun.direction;
+            let k_out = -ray.dir;
+            let (rotation, _) = scattering_frame(path.frame_e1, k_in, k_out);
+            let layer = path.view_segments.first().map_or(ray.layer, |s| s.layer);
+            for k in 0..nk {
+                let z = path.view_polarization.sun_integral_of(k);
+                path.view_control[k] = if z > 0.0 && z.is_finite() {
+                    let depolarization = follow.coefficients[layer * nk + k].rayleigh_depolarization;
+                    let m = PhaseFunction::Rayleigh { depolarization }.matrix(k_in.dot(k_out));
+                    rotation.column_of(&Mueller::identity(), &m) * (z * INV_4PI)
+                } else {
+                    Stokes::default()
+                };
+            }
+            path.view_control_e1 = Some(path.frame_e1);
+        }
+        for (k, &w) in follow.channels.iter().enumerate() {
+            let control = path.view_control[k];
+            if control.0[0] == 0.0 {
+                continue;
+            }
+            let ratio = point.map_or(0.0, |(t, pdf)| path.view_polarization.sun_pdf_of(k, t) / pdf);
+            let mut v = path.throughput[w] * control;
+            v.0[0] = 0.0;
+            path.add(w, v * (1.0 - ratio));
+        }
     }
 
     /// Whether a sun-aware connection along the flight along `ray` to `end`

@@ -56,6 +56,7 @@ impl Scene {
             // the scene's threshold; one with a view flight scales it there.
             path.roulette_threshold = self.settings.roulette_threshold;
             path.view_sun_aware = view.dot(self.sun.direction) >= self.view_sun_aware_min_cos(ray);
+            path.view_repeats = ray == ViewRay::Repeated;
             if spectra.sigma.is_empty() {
                 path.hero_sigma.clear();
                 path.hero_sigma
