@@ -200,6 +200,41 @@ fn a_separable_sky_goes_through_fit_file_and_eval() {
         .parse()
         .unwrap();
     assert!(ratio > 0.0 && ratio <= 1.0, "{line}");
+    // The interpolated dataset's own SNR: at a node it is the dataset, so
+    // its mean and minimum are those of the node's images in the report's
+    // per-image table (printed to 0.01 dB).
+    let numbers = |line: &str| -> Vec<f64> {
+        line.rsplit('|')
+            .nth(1)
+            .unwrap()
+            .trim()
+            .trim_end_matches("dB")
+            .split('/')
+            .map(|v| v.trim().parse().unwrap())
+            .collect()
+    };
+    let line = report
+        .lines()
+        .find(|l| l.contains("SNR of the interpolated dataset"))
+        .expect("a row of the interpolated dataset's SNR");
+    let (mean, min) = (numbers(line)[0], numbers(line)[1]);
+    let at_node: Vec<f64> = report
+        .split("## Per image")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            (cells.len() > 6 && cells[4] == "10").then(|| cells[6].parse().unwrap())
+        })
+        .collect();
+    assert!(!at_node.is_empty(), "{report}");
+    let node_mean = at_node.iter().sum::<f64>() / at_node.len() as f64;
+    let node_min = at_node.iter().fold(f64::INFINITY, |m: f64, &v| m.min(v));
+    assert!(
+        (mean - node_mean).abs() < 0.011 && (min - node_min).abs() < 0.011,
+        "{line}: the node's images {node_mean} / {node_min}"
+    );
     // The sky: not exact, because half the (γ, α) table has no data and
     // the rank truncation spends some of its rank on the fill there. The
     // error is largest next to the sun at the edge of the valid region;

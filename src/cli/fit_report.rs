@@ -188,9 +188,12 @@ pub fn run(args: FitReportArgs) -> anyhow::Result<()> {
     }
     if !extras.interpolation.is_empty() {
         let max = extras.interpolation.iter().map(|s| s.ratio()).fold(0.0f64, f64::max);
+        let snr = extras.interpolation.iter().map(|s| s.snr_interpolated_db);
+        let n = extras.interpolation.len();
+        let mean = snr.clone().sum::<f64>() / n as f64;
+        let min = snr.fold(f64::INFINITY, f64::min);
         println!(
-            "interpolation ratio max {max:.3} over {} images",
-            extras.interpolation.len()
+            "interpolation ratio max {max:.3} over {n} images; the interpolated dataset's SNR against them mean {mean:.2} dB, minimum {min:.2} dB"
         );
     }
     for (what, t) in [

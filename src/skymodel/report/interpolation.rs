@@ -23,6 +23,9 @@ pub struct InterpolationScore {
     pub wavelength_nm: f64,
     pub rmse_interpolated: f64,
     pub rmse_fit: f64,
+    /// The interpolated dataset's own SNR against B (dB), as `fit-report`
+    /// scores the dataset against its renders at the nodes.
+    pub snr_interpolated_db: f64,
 }
 
 impl InterpolationScore {
@@ -63,14 +66,16 @@ pub fn interpolation(model: &Model, grid: &RenderGrid, settings: &FitSettings) -
                 fitted.values[j * img.width + i] = (sum * eval_piecewise(&eb, &own.radiance.emph, p.zero)).max(0.0);
             }
         }
+        let against = compare(layer, &interpolated, None, &[]);
         InterpolationScore {
             visibility_km: config.visibility_km,
             albedo: layer.albedo,
             altitude_m: config.altitude_km * 1000.0,
             elevation_deg: config.elevation_deg,
             wavelength_nm: layer.wavelength_nm,
-            rmse_interpolated: compare(layer, &interpolated, None, &[]).rmse(),
+            rmse_interpolated: against.rmse(),
             rmse_fit: compare(layer, &fitted, None, &[]).rmse(),
+            snr_interpolated_db: against.snr_db(),
         }
     })
 }

@@ -278,6 +278,12 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             f[2],
             f[4]
         ));
+        let snr: Vec<f64> = extras.interpolation.iter().map(|s| s.snr_interpolated_db).collect();
+        let (m, lo) = mean_min(&snr);
+        md.push_str(&format!(
+            "| SNR of the interpolated dataset against the between-node renders, mean / minimum over {} images | {m:.2} / {lo:.2} dB |\n",
+            snr.len()
+        ));
     }
     if let Some((mean, min)) = extras.half_float_snr_db {
         md.push_str(&format!(
@@ -437,10 +443,10 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
             let f = five_numbers(&ratios).unwrap_or([f64::NAN; 5]);
             md.push_str(&format!("| {e} | {} | {:.3} | {:.3} |\n", ratios.len(), f[2], f[4]));
         }
-        md.push_str("\nEvery image:\n\n| visibility | albedo | altitude (m) | elevation | channel | rmse(B, I) | rmse(B, F) | ratio |\n|---|---|---|---|---|---|---|---|\n");
+        md.push_str("\nEvery image:\n\n| visibility | albedo | altitude (m) | elevation | channel | rmse(B, I) | rmse(B, F) | ratio | SNR(B, I) (dB) |\n|---|---|---|---|---|---|---|---|---|\n");
         for s in &extras.interpolation {
             md.push_str(&format!(
-                "| {} | {} | {} | {} | {} | {:.4e} | {:.4e} | {:.3} |\n",
+                "| {} | {} | {} | {} | {} | {:.4e} | {:.4e} | {:.3} | {:.2} |\n",
                 s.visibility_km,
                 s.albedo,
                 s.altitude_m,
@@ -448,7 +454,8 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
                 s.wavelength_nm,
                 s.rmse_interpolated,
                 s.rmse_fit,
-                s.ratio()
+                s.ratio(),
+                s.snr_interpolated_db
             ));
         }
         md.push('\n');
