@@ -127,11 +127,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         .fold(1.0f64, |m, &e| m.min(e));
     println!(
         "{}: {images} images in {wall:.1} s ({:.3} core-seconds per image); explained variance at rank {} ≥ {:.5}; \
-         transmittance max |ΔT| at the nodes {:.2e}; {} bytes",
+         transmittance rank {}, max |ΔT| at the nodes {:.2e}; {} bytes",
         out.display(),
         fit.image_core_seconds / images as f64,
         settings.rank,
         min_explained,
+        fit.transmittance.part.rank,
         fit.transmittance.max_abs_error,
         std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0)
     );

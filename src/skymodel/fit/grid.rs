@@ -52,7 +52,7 @@ pub fn fit_grid(settings: &FitSettings, grid: &RenderGrid, done: &(dyn Fn(usize)
         Some(dir) => transmittance::read(dir, &grid.wavelengths_nm)?,
         None => transmittance::compute(&grid.jobs, &grid.wavelengths_nm)?,
     };
-    let transmittance = transmittance::fit(&tables, &grid.wavelengths_nm, settings.transmittance_rank)?;
+    let transmittance = transmittance::fit_rank(&tables, &grid.wavelengths_nm, settings.transmittance_rank)?;
     let finished = AtomicUsize::new(0);
     let polarised = grid.polarised && settings.polarisation_rank > 0;
     // One (visibility, altitude) column of sun elevations at a time: its
@@ -184,9 +184,10 @@ pub fn provenance(settings: &FitSettings, grid: &RenderGrid, fit: &GridFit, data
     ));
     s.push_str(&format!("transmittance_tables = {:?}\n", fit.transmittance.source));
     s.push_str(&format!(
-        "images = {}\nimage_core_seconds = {:.3}\ntransmittance_max_abs_error = {:.6e}\n",
+        "images = {}\nimage_core_seconds = {:.3}\ntransmittance_rank = {}\ntransmittance_max_abs_error = {:.6e}\n",
         fit.images.len(),
         fit.image_core_seconds,
+        fit.transmittance.part.rank,
         fit.transmittance.max_abs_error
     ));
     s.push_str("\n[settings]\n");

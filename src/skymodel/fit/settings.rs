@@ -28,8 +28,8 @@ pub struct FitSettings {
     /// Rank of the polarisation decomposition (seed: 5); 0 writes no
     /// polarisation part.
     pub polarisation_rank: usize,
-    /// Rank of the transmittance decomposition per observer altitude (seed: 12).
-    pub transmittance_rank: usize,
+    /// Rank of the transmittance decomposition per observer altitude.
+    pub transmittance_rank: TransmittanceRank,
     /// Nodes per axis of the (γ, α) table (seed: 361, 0.5°).
     pub resolution: usize,
     /// Break counts of the stored functions (seed: 275, 205, 118).
@@ -59,7 +59,7 @@ struct RawFit {
     out: Option<String>,
     rank: Option<i64>,
     polarisation_rank: Option<i64>,
-    transmittance_rank: Option<i64>,
+    transmittance_rank: Option<RankValue>,
     resolution: Option<i64>,
     sun_breaks: Option<i64>,
     zenith_breaks: Option<i64>,
@@ -69,6 +69,38 @@ struct RawFit {
     fill_weight: Option<f64>,
     neighbour_fill: Option<bool>,
 }
+
+/// A rank written as a number or as a word (`"auto"`).
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum RankValue {
+    Number(i64),
+    Word(String),
+}
+
+/// The rank of the transmittance decomposition: fixed, or chosen per
+/// grid (`"auto"`, the default): the smallest from the supplement's 12 up,
+/// in steps of [`AUTO_RANK_STEP`], whose largest error in T at the nodes
+/// is at most [`AUTO_MAX_ERROR`], at most the number of (visibility,
+/// channel) columns, where the decomposition is exact. Eleven bands of
+/// 40 nm stay at 12 (6.6e-4); 55 bands from 280 to 2480 nm, whose gas
+/// bands differ from each other, needed 20 (8.2e-4, against 1.53e-2 at 12;
+/// docs/sky-models.md, "A 55-channel dataset").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TransmittanceRank {
+    Fixed(usize),
+    Auto,
+}
+
+/// The first rank `"auto"` tries: the supplement's.
+pub const AUTO_RANK_START: usize = 12;
+
+/// The step between the ranks `"auto"` tries.
+pub const AUTO_RANK_STEP: usize = 4;
+
+/// The largest error in T at the nodes `"auto"` accepts: a fifth of the
+/// grid's target of 0.005 (docs/sky-models.md, the mini grid's table).
+pub const AUTO_MAX_ERROR: f64 = 1e-3;
 
 #[derive(Debug, Deserialize)]
 #[serde(untagged)]
@@ -146,7 +178,27 @@ impl FitSettings {
         let resolution = count("resolution", raw.resolution, 361, 9, 4001)?;
         let rank = count("rank", raw.rank, 9, 1, resolution as i64)?;
         let polarisation_rank = count("polarisation_rank", raw.polarisation_rank, 5, 0, resolution as i64)?;
-        let transmittance_rank = count("transmittance_rank", raw.transmittance_rank, 12, 1, 1000)?;
+        let transmittance_rank = match raw.transmittance_rank {
+            None => TransmittanceRank::Auto,
+            Some(RankValue::Word(w)) if w == "auto" => TransmittanceRank::Auto,
+            Some(RankValue::Word(w)) => {
+                return Err(invalid(
+                    "transmittance_rank",
+                    format!("{w:?}"),
+                    "not a rank",
+                    "\"auto\" or 1 to 1000",
+                ));
+            }
+            Some(RankValue::Number(n)) if (1..=1000).contains(&n) => TransmittanceRank::Fixed(n as usize),
+            Some(RankValue::Number(n)) => {
+                return Err(invalid(
+                    "transmittance_rank",
+                    n.to_string(),
+                    "out of range",
+                    "\"auto\" or 1 to 1000",
+                ));
+            }
+        };
         let sun_breaks = count("sun_breaks", raw.sun_breaks, 275, 2, 100_000)?;
         let zenith_breaks = count("zenith_breaks", raw.zenith_breaks, 205, 3, 100_000)?;
         let emph_breaks = count("emph_breaks", raw.emph_breaks, 118, 3, 100_000)?;
@@ -190,7 +242,10 @@ impl FitSettings {
             q(&self.out),
             self.rank,
             self.polarisation_rank,
-            self.transmittance_rank,
+            match self.transmittance_rank {
+                TransmittanceRank::Fixed(n) => n.to_string(),
+                TransmittanceRank::Auto => "\"auto\"".to_string(),
+            },
             self.resolution,
             self.sun_breaks,
             self.zenith_breaks,
@@ -212,7 +267,10 @@ mod tests {
     fn the_required_keys_are_enough_and_the_defaults_are_the_seeds() {
         let s = FitSettings::parse("renders = \"r\"\nout = \"sky.dat\"\n", "fit.toml").unwrap();
         assert_eq!(s.renders, vec![PathBuf::from("r")]);
-        assert_eq!((s.rank, s.polarisation_rank, s.transmittance_rank), (9, 5, 12));
+        assert_eq!(
+            (s.rank, s.polarisation_rank, s.transmittance_rank),
+            (9, 5, TransmittanceRank::Auto)
+        );
         assert_eq!(
             (s.sun_breaks, s.zenith_breaks, s.emph_breaks, s.resolution),
             (275, 205, 118, 361)
@@ -223,6 +281,9 @@ mod tests {
         assert!(s.neighbour_fill);
         // The provenance text reads back as the same settings.
         assert_eq!(FitSettings::parse(&s.to_toml(), "again").unwrap(), s);
+        let fixed = FitSettings::parse("renders = \"r\"\nout = \"x\"\ntransmittance_rank = 20\n", "f").unwrap();
+        assert_eq!(fixed.transmittance_rank, TransmittanceRank::Fixed(20));
+        assert_eq!(FitSettings::parse(&fixed.to_toml(), "again").unwrap(), fixed);
     }
 
     #[test]
@@ -238,6 +299,14 @@ mod tests {
             ("renders = []\nout = \"x\"\n", "renders"),
             ("renders = \"r\"\nout = \"x\"\nrnak = 3\n", "rnak"),
             ("renders = \"r\"\nout = \"x\"\nneighbour_fill = 1\n", "neighbour_fill"),
+            (
+                "renders = \"r\"\nout = \"x\"\ntransmittance_rank = 0\n",
+                "transmittance_rank",
+            ),
+            (
+                "renders = \"r\"\nout = \"x\"\ntransmittance_rank = \"automatic\"\n",
+                "transmittance_rank",
+            ),
         ] {
             let e = FitSettings::parse(text, "fit.toml").unwrap_err();
             assert!(e.is_user_error());

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 
 use super::decompose::truncated_svd;
 use super::laplace;
+use super::settings::{AUTO_MAX_ERROR, AUTO_RANK_START, AUTO_RANK_STEP, TransmittanceRank};
 use crate::error::{Error, Result};
 use crate::io::exr::{read_exr, wavelength_label};
 use crate::job::transmittance::Grid;
@@ -270,8 +271,33 @@ pub fn read(dir: &Path, wavelengths_nm: &[f64]) -> Result<Tables> {
     })
 }
 
-/// Fits `tables` with rank `rank` per observer altitude for the channels
-/// `wavelengths_nm`.
+/// Fits `tables` for the channels `wavelengths_nm` at `rank` per
+/// observer altitude, fixed or chosen ([`TransmittanceRank::Auto`]).
+pub fn fit_rank(tables: &Tables, wavelengths_nm: &[f64], rank: TransmittanceRank) -> Result<TransmittanceResult> {
+    match rank {
+        TransmittanceRank::Fixed(rank) => fit(tables, wavelengths_nm, rank),
+        TransmittanceRank::Auto => {
+            // Exact at as many ranks as (visibility, channel) columns.
+            let visibilities = {
+                let mut v: Vec<u64> = tables.by_key.keys().map(|k| k.0).collect();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            let columns = (visibilities * wavelengths_nm.len()).max(1);
+            let mut rank = AUTO_RANK_START.min(columns);
+            loop {
+                let result = fit(tables, wavelengths_nm, rank)?;
+                if result.max_abs_error <= AUTO_MAX_ERROR || rank >= columns {
+                    return Ok(result);
+                }
+                rank = (rank + AUTO_RANK_STEP).min(columns);
+            }
+        }
+    }
+}
+
+/// Fits the tables at a fixed `rank` per observer altitude.
 pub fn fit(tables: &Tables, wavelengths_nm: &[f64], rank: usize) -> Result<TransmittanceResult> {
     let (n_a, n_d) = (tables.n_a, tables.n_d);
     let mut visibilities: Vec<f64> = tables.by_key.keys().map(|k| f64::from_bits(k.0)).collect();
@@ -359,4 +385,86 @@ pub fn fit(tables: &Tables, wavelengths_nm: &[f64], rank: usize) -> Result<Trans
         filled,
         source: tables.source.clone(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One visibility and observer altitude, 8 × 16 nodes and `channels`
+    /// channels whose √T is a sum of `terms` separable patterns with
+    /// amplitudes falling by 0.6 per term (so each rank leaves the next
+    /// terms' error), scaled into (0, 1).
+    fn tables(channels: usize, terms: usize) -> Tables {
+        let (n_a, n_d) = (8, 16);
+        let nodes = n_a * n_d;
+        let mut sqrt_t = vec![vec![0.0; nodes]; channels];
+        for (c, column) in sqrt_t.iter_mut().enumerate() {
+            for (node, x) in column.iter_mut().enumerate() {
+                let s: f64 = (0..terms)
+                    .map(|k| {
+                        let f = ((k + 1) as f64 * (node as f64 * 0.37 + 0.5)).sin();
+                        let g = ((k + 2) as f64 * (c as f64 * 0.71 + 0.3)).cos();
+                        0.6f64.powi(k as i32) * f * g
+                    })
+                    .sum();
+                *x = 0.5 + 0.2 * s;
+            }
+        }
+        let t = sqrt_t.iter().map(|c| c.iter().map(|x| x * x).collect()).collect();
+        let mut by_key = BTreeMap::new();
+        by_key.insert(
+            (40f64.to_bits(), 0f64.to_bits()),
+            Table {
+                sqrt_t,
+                t,
+                blocked: vec![false; nodes],
+            },
+        );
+        Tables {
+            by_key,
+            n_a,
+            n_d,
+            source: "test".into(),
+        }
+    }
+
+    #[test]
+    fn auto_takes_the_first_rank_from_twelve_that_holds_the_nodes() {
+        // Twenty-four patterns over thirty channels: rank 12 leaves more
+        // than the target.
+        let t = tables(30, 24);
+        let wavelengths: Vec<f64> = (0..30).map(|c| 300.0 + 40.0 * c as f64).collect();
+        let at = |r: usize| fit(&t, &wavelengths, r).unwrap().max_abs_error;
+        assert!(at(AUTO_RANK_START) > AUTO_MAX_ERROR, "{}", at(AUTO_RANK_START));
+        let expected = (AUTO_RANK_START..=30)
+            .step_by(AUTO_RANK_STEP)
+            .find(|&r| at(r) <= AUTO_MAX_ERROR)
+            .expect("a rank that holds the nodes");
+        let auto = fit_rank(&t, &wavelengths, TransmittanceRank::Auto).unwrap();
+        assert_eq!(auto.part.rank, expected);
+        assert!(auto.part.rank > AUTO_RANK_START && auto.max_abs_error <= AUTO_MAX_ERROR);
+        // A fixed rank is taken as it is.
+        assert_eq!(
+            fit_rank(&t, &wavelengths, TransmittanceRank::Fixed(12))
+                .unwrap()
+                .part
+                .rank,
+            12
+        );
+        // Few patterns: the supplement's 12.
+        let easy = tables(30, 6);
+        assert_eq!(
+            fit_rank(&easy, &wavelengths, TransmittanceRank::Auto)
+                .unwrap()
+                .part
+                .rank,
+            12
+        );
+        // Fewer columns than 12: as many as there are (exact).
+        let few = tables(5, 24);
+        let r = fit_rank(&few, &wavelengths[..5], TransmittanceRank::Auto).unwrap();
+        assert_eq!(r.part.rank, 5);
+        assert!(r.max_abs_error < 1e-6, "{}", r.max_abs_error);
+    }
 }
