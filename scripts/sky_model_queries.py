@@ -6,6 +6,9 @@ Usage:  python3 scripts/sky_model_queries.py DATASET DIRECTIONS_DIR [--atmosim P
 DIRECTIONS_DIR is the output of a `directions` render of the dataset's
 atmosphere (one task per sun elevation, from the ground, visibility and
 albedos of the dataset's nodes: examples/sky_model_wide_mini_directions.toml).
+A job of several tasks writes one folder per task; a job of one task
+writes its radiance.csv and task.toml into DIRECTIONS_DIR itself, and the
+task's name is then read from its task.toml. Both are read.
 Every row of each task's radiance.csv becomes a query of
 `atmosim eval DATASET --queries` (written beside the dataset as
 <dataset>.queries.csv, its answers as <dataset>.answers.csv); per band it
@@ -29,11 +32,28 @@ HEADER = ("view_x_m,view_y_m,view_z_m,dir_x,dir_y,dir_z,sun_elevation_deg,sun_az
           "visibility_km,albedo,wavelength_nm,distance_m")
 
 
+def task_name(path):
+    """The task's name: its folder's, or for a one-task job its task.toml's `task`."""
+    folder = os.path.dirname(path)
+    task_toml = os.path.join(folder, "task.toml")
+    if os.path.isfile(task_toml):
+        with open(task_toml) as f:
+            match = re.search(r'^task = "([^"]*)"$', f.read(), re.MULTILINE)
+        if match:
+            return match.group(1)
+    return os.path.basename(folder)
+
+
 def references(directions_dir):
     """(elevation, visibility, row) for every row of every task's radiance.csv."""
     out = []
-    for path in sorted(glob.glob(os.path.join(directions_dir, "*", "radiance.csv"))):
-        task = os.path.basename(os.path.dirname(path))
+    single = os.path.join(directions_dir, "radiance.csv")
+    if os.path.isfile(single):
+        paths = [single]
+    else:
+        paths = sorted(glob.glob(os.path.join(directions_dir, "*", "radiance.csv")))
+    for path in paths:
+        task = task_name(path)
         match = re.match(r"vis([0-9.]+)_elev([+-][0-9.]+)_alt00000m$", task)
         if not match:
             raise SystemExit(f"{path}: not a ground-level task named vis…_elev…_alt00000m")
