@@ -20,8 +20,8 @@ direct transmittance of that one gas's vertical column:
   from 280 nm (one amount scaling per band, that of the region that
   absorbs most), spread uniformly over the 40 nm band, averaged over the
   part of each 40 nm band inside Kato's band;
-- atmosim: the tracer's own band average (sun.csv) with only that gas on
-  and Kato's bands as the channels (as scripts/gas_validation.py).
+- atmosim: the tracer's own band average (sun.csv) with those gases on
+  and Kato's bands as the channels (scripts/gas_validation.py's renders).
 
 So grid - lowtran is what the 40 nm grid costs, atmosim - grid the fit of
 the k-distributions, and lowtran - kato the difference of the sources.
@@ -29,11 +29,8 @@ Prints a markdown table of US standard at sun zenith 0 and a summary over
 every row against the issue's goal (1 %, or 0.005 where T < 0.5).
 """
 
-import csv
 import importlib.util
 import math
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -41,9 +38,17 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-spec = importlib.util.spec_from_file_location("derive_gases", ROOT / "scripts/derive_gases.py")
-dg = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(dg)
+
+
+def load(name):
+    spec = importlib.util.spec_from_file_location(name, ROOT / f"scripts/{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+dg = load("derive_gases")
+gv = load("gas_validation")
 
 # Kato's H2O tables carry the band's other gases at fixed mixing ratios;
 # its band 18 (the O2 A band) is O2's alone.
@@ -80,50 +85,6 @@ def band_mean(per_gas, lo_nm, hi_nm):
     return 1.0 - sum(share * (1.0 - t) for share, t in steps.values()) / (hi_nm - lo_nm)
 
 
-def atmosim_band_transmittance(bands, gases, out_dir):
-    """{(profile index, lo, mu index): T} from the tracer's sun.csv."""
-    exe = os.environ.get("ATMOSIM", "atmosim")
-    centres = ", ".join(f"{0.5 * (lo + hi)!r}" for lo, hi in bands)
-    widths = ", ".join(f"{hi - lo!r}" for lo, hi in bands)
-    result = {}
-    for p, (profile, _) in enumerate(dg.AFGL):
-        name = "_".join(gases) + "_" + profile
-        job = out_dir / f"{name}.toml"
-        job.write_text(
-            f"""[planet]
-geometry = "plane_parallel"
-[atmosphere]
-profile = "{profile}"
-rayleigh = "none"
-ozone = "none"
-aerosol = "none"
-gases = [{", ".join(f'"{g}"' for g in gases)}]
-[spectrum]
-wavelengths_nm = [{centres}]
-band_width_nm = [{widths}]
-[sun]
-zenith_deg = [0.0, 60.0]
-[sensor]
-type = "directions"
-view_zenith_deg = [0.0]
-azimuth_deg = [0.0]
-[render]
-samples = 1
-[output]
-directory = "{out_dir / name}"
-sun = true
-"""
-        )
-        subprocess.run([exe, "render", str(job), "-q", "--force"], check=True)
-        for sun_csv in sorted((out_dir / name).glob("*/sun.csv")):
-            for r in csv.DictReader(open(sun_csv)):
-                lam = float(r["wavelength_nm"])
-                band = min(bands, key=lambda b: abs(0.5 * (b[0] + b[1]) - lam))
-                zenith = 0 if float(r["sun_zenith_deg"]) == 0.0 else 1
-                result[(p, band[0], zenith)] = float(r["transmittance"])
-    return result
-
-
 def main():
     shared = Path(sys.argv[1])
     if (shared / "data").is_dir():
@@ -139,8 +100,9 @@ def main():
     ours = {}
     for code, gases in GASES_OF.items():
         bands = sorted({(lo, hi) for _, g, lo, hi, _, _ in rows if g == code})
-        for (p, lo, z), t in atmosim_band_transmittance(bands, gases, out_dir).items():
-            ours[(p, code, lo, z)] = t
+        centre_lo = {round(0.5 * (lo + hi), 4): lo for lo, hi in bands}
+        for (p, centre, zenith), t in gv.band_transmittance(bands, gases, out_dir).items():
+            ours[(p, code, centre_lo[centre], 0 if zenith == 0.0 else 1)] = t
     all_gases = GASES_OF[1]
     models = {gas: dg.lowtran_model(src, gas) for gas in all_gases}
     units = {gas: dg.AVOGADRO / dg.M_H2O if gas == "h2o" else dg.LOSCHMIDT_CM3 for gas in all_gases}

@@ -637,12 +637,7 @@ mod tests {
                 false,
             );
             let mut density = FlightDensity::default();
-            let optics = |_: usize, s: &Segment| {
-                let mut o = [(0.0, 0.0); MAX_FOLLOWED];
-                o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
-                o
-            };
-            assert!(density.build(&ray, &segments, 1, 4, optics, &depth, sun));
+            assert!(density.build(&ray, &segments, 1, 4, one_channel(&sigma, &c), &depth, sun));
             assert!(density.terms.iter().any(|t| t.gc < -2.0), "c falls inside a piece");
             // Šidák over both flights' 16 segments at 1e-4.
             assert_draws_carry_their_density(&density, &segments, 16);
@@ -678,6 +673,16 @@ mod tests {
         assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
         assert!(density.totals.iter().all(|t| t.2), "both channels can be drawn from");
         assert_draws_carry_their_density(&density, &segments, 8);
+    }
+
+    /// One followed channel's optics per segment: σ per layer over the
+    /// segment's length, and c per layer.
+    fn one_channel<'a>(sigma: &'a [f64], c: &'a [f64]) -> impl FnMut(usize, &Segment) -> SegmentOptics + 'a {
+        move |_, s| {
+            let mut o = [(0.0, 0.0); MAX_FOLLOWED];
+            o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
+            o
+        }
     }
 
     /// Eight 1 km layers (their levels) whose σ falls by e every 1.2 km,
@@ -770,13 +775,8 @@ mod tests {
                 layer: i,
             })
             .collect();
-        let optics = |_: usize, s: &Segment| {
-            let mut o = [(0.0, 0.0); MAX_FOLLOWED];
-            o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
-            o
-        };
         let mut density = FlightDensity::default();
-        assert!(density.build(&ray, &segments, 1, 1, optics, &depth, sun));
+        assert!(density.build(&ray, &segments, 1, 1, one_channel(&sigma, &c), &depth, sun));
         assert!(density.pieces.len() > segments.len(), "no piece was halved");
         // The sunlit single scattering along the flight at 2,000 points per
         // segment, f = c·e^(−τ)·e^(−τ̃_sun) over the table's own depths, its
@@ -957,12 +957,7 @@ mod tests {
             sun,
             false,
         );
-        let one = |_: usize, s: &Segment| {
-            let mut o = [(0.0, 0.0); MAX_FOLLOWED];
-            o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
-            o
-        };
-        assert!(density.build(&ray, &segments, 1, 4, one, &depth, sun));
+        assert!(density.build(&ray, &segments, 1, 4, one_channel(&sigma, &c), &depth, sun));
         let mut sampler = Sampler::new(&[3]);
         for _ in 0..1000 {
             let p = density.sample(&segments, 1.0, &mut sampler).expect("a point");
@@ -1007,19 +1002,7 @@ mod tests {
             },
         ];
         let mut density = FlightDensity::default();
-        let usable = density.build(
-            &ray,
-            &segments,
-            1,
-            1,
-            |_, s| {
-                let mut o = [(0.0, 0.0); MAX_FOLLOWED];
-                o[0] = (sigma[s.layer] * (s.t1 - s.t0), c[s.layer]);
-                o
-            },
-            &depth,
-            sun,
-        );
+        let usable = density.build(&ray, &segments, 1, 1, one_channel(&sigma, &c), &depth, sun);
         assert!(usable);
         // τ_sun at altitude z: the column above over μ0.
         let above = |z: f64| {
