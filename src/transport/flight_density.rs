@@ -114,6 +114,13 @@ struct Terms {
     flight_integral: f64,
 }
 
+/// The change over a piece of the exponent of its sun-following part
+/// (e^(−τ)·e^(−τ̃_sun)·c) and of its flight part (e^(−τ)·c), in that order.
+#[inline]
+fn changes(t: &Terms) -> [f64; 2] {
+    [t.tau + t.sun1 - t.sun0 - t.gc, t.tau - t.gc]
+}
+
 /// A drawn point: its distance along the flight, the segment holding it,
 /// and the density it was drawn with, per unit length.
 #[derive(Debug, Clone, Copy)]
@@ -121,6 +128,9 @@ pub struct Point {
     pub t: f64,
     pub segment: usize,
     pub pdf: f64,
+    /// The piece it was drawn in (a hint for [`FlightDensity::sun_pdf_of`]
+    /// on a density with the same pieces).
+    pub piece: usize,
 }
 
 /// The density along one flight; its buffers are reused from flight to
@@ -141,6 +151,11 @@ pub struct FlightDensity {
     spare_terms: Vec<Terms>,
     /// The pieces that bend: index, segment of the middle, depths there.
     bends: Vec<(usize, (usize, [f64; MAX_FOLLOWED]))>,
+    /// Per piece and followed channel (`[piece·followed + k]`), where
+    /// [`FlightDensity::keep_normalisers`] made them: 1 − e^(−Δ) of the
+    /// sun-following and the flight part, Δ their exponent's change over
+    /// the piece (what a draw and its density need); empty otherwise.
+    normalisers: Vec<[f64; 2]>,
 }
 
 impl FlightDensity {
@@ -164,6 +179,7 @@ impl FlightDensity {
         self.followed = followed;
         self.pieces.clear();
         self.terms.clear();
+        self.normalisers.clear();
         let nk = followed;
         let Some(first) = segments.first() else {
             return false;
@@ -389,12 +405,19 @@ impl FlightDensity {
     /// [`FlightDensity::sample`] would draw from with that channel alone
     /// and share 1): over the flight it integrates to 1 where the channel
     /// can be drawn from, and it is 0 where it cannot or off the flight.
-    pub fn sun_pdf_of(&self, k: usize, t: f64) -> f64 {
+    /// `hint`: the piece to try first (a drawn [`Point::piece`] of a
+    /// density with the same pieces; any other value searches).
+    pub fn sun_pdf_of(&self, k: usize, t: f64, hint: usize) -> f64 {
         if k >= self.followed || !self.totals[k].2 {
             return 0.0;
         }
         let nk = self.followed;
-        let j = self.pieces.partition_point(|p| p.t1 < t);
+        // The drawn point's piece where the pieces are the same, else the
+        // one holding t.
+        let j = match self.pieces.get(hint) {
+            Some(p) if p.t0 <= t && t <= p.t1 => hint,
+            _ => self.pieces.partition_point(|p| p.t1 < t),
+        };
         let Some(p) = self.pieces.get(j) else {
             return 0.0;
         };
@@ -404,13 +427,35 @@ impl FlightDensity {
         }
         let tk = &self.terms[j * nk + k];
         let u = (t - p.t0) / len;
-        let de = tk.tau + tk.sun1 - tk.sun0 - tk.gc;
+        let de = changes(tk)[0];
         let inside = if de.abs() < 1e-9 {
             1.0
         } else {
-            de * (-de * u).exp() / -(-de).exp_m1()
+            de * (-de * u).exp() / self.one_minus_exp(j, k, 0, de)
         };
         tk.sun_integral / self.totals[k].0 * inside / len
+    }
+
+    /// Keeps 1 − e^(−Δ) of every piece's parts for the draws and densities
+    /// to come (until the next build): for a density drawn from again and
+    /// again (the view's own flight), where they would cost three `expm1`
+    /// a draw; the same numbers either way.
+    pub fn keep_normalisers(&mut self) {
+        self.normalisers.clear();
+        self.normalisers
+            .extend(self.terms.iter().map(|t| changes(t).map(|de| -(-de).exp_m1())));
+    }
+
+    /// 1 − e^(−`de`) for piece `j`, followed channel `k` and part `part`
+    /// (0 the sun-following, 1 the flight's; `de` its exponent's change
+    /// over the piece): kept ([`FlightDensity::keep_normalisers`]) or
+    /// computed.
+    #[inline]
+    fn one_minus_exp(&self, j: usize, k: usize, part: usize, de: f64) -> f64 {
+        match self.normalisers.get(j * self.followed + k) {
+            Some(n) => n[part],
+            None => -(-de).exp_m1(),
+        }
     }
 
     /// Draws a point along the flight of `segments` (those of `build`),
@@ -457,13 +502,13 @@ impl FlightDensity {
                     .find(|&j| weight_of(&self.terms[j * nk + k]) > 0.0)
                     .unwrap_or(0)
             });
-        let tk = self.terms[j * nk + k];
-        let de = (if from_sun { tk.tau + tk.sun1 - tk.sun0 } else { tk.tau }) - tk.gc;
+        let part = usize::from(!from_sun);
+        let de = changes(&self.terms[j * nk + k])[part];
         let v = sampler.next_f64();
         let u = if de.abs() < 1e-9 {
             v
         } else {
-            -(-v * (-(-de).exp_m1())).ln_1p() / de
+            -(-v * self.one_minus_exp(j, k, part, de)).ln_1p() / de
         };
         let p = self.pieces[j];
         let len = p.t1 - p.t0;
@@ -472,23 +517,29 @@ impl FlightDensity {
         // The density of this draw, per unit length: for each followed
         // channel and part, the chance of the piece (its integral over
         // the total) times the density of u inside it.
-        let inside = |de: f64| {
+        let inside = |k: usize, part: usize, de: f64| {
             if de.abs() < 1e-9 {
                 1.0
             } else {
-                de * (-de * u).exp() / -(-de).exp_m1()
+                de * (-de * u).exp() / self.one_minus_exp(j, k, part, de)
             }
         };
         let mut pdf = 0.0;
         for &k in usable {
             let t = &self.terms[j * nk + k];
+            let [de_sun, de_flight] = changes(t);
             let (sun_total, flight_total, _) = self.totals[k];
             pdf += share(k)
-                * (alpha * t.sun_integral / sun_total * inside(t.tau + t.sun1 - t.sun0 - t.gc)
-                    + (1.0 - alpha) * t.flight_integral / flight_total * inside(t.tau - t.gc));
+                * (alpha * t.sun_integral / sun_total * inside(k, 0, de_sun)
+                    + (1.0 - alpha) * t.flight_integral / flight_total * inside(k, 1, de_flight));
         }
         pdf /= len;
-        (pdf > 0.0 && pdf.is_finite()).then_some(Point { t, segment, pdf })
+        (pdf > 0.0 && pdf.is_finite()).then_some(Point {
+            t,
+            segment,
+            pdf,
+            piece: j,
+        })
     }
 }
 
@@ -932,12 +983,19 @@ mod tests {
         assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
         for k in 0..2 {
             let mut total = 0.0;
-            for p in &density.pieces {
+            for (j, p) in density.pieces.iter().enumerate() {
                 let steps = 4000;
                 let h = (p.t1 - p.t0) / steps as f64;
                 // Each piece's own ends (a piece's start is its
-                // predecessor's end, where the density jumps).
-                let f = |i: usize| density.sun_pdf_of(k, (p.t0 + i as f64 * h).clamp(p.t0 + 1e-9 * h, p.t1 - 1e-9 * h));
+                // predecessor's end, where the density jumps), found by
+                // the hint and by the search alike.
+                let f = |i: usize| {
+                    let t = (p.t0 + i as f64 * h).clamp(p.t0 + 1e-9 * h, p.t1 - 1e-9 * h);
+                    let q = density.sun_pdf_of(k, t, j);
+                    assert_eq!(q, density.sun_pdf_of(k, t, usize::MAX));
+                    assert_eq!(q, density.sun_pdf_of(k, t, (j + 1) % density.pieces.len()));
+                    q
+                };
                 let mut sum = f(0) + f(steps);
                 for i in 1..steps {
                     sum += if i % 2 == 1 { 4.0 } else { 2.0 } * f(i);
@@ -945,10 +1003,10 @@ mod tests {
                 total += sum * h / 3.0;
             }
             assert!((total - 1.0).abs() < 1e-9, "channel {k}: {total}");
-            assert_eq!(density.sun_pdf_of(k, segments[7].t1 + 0.1), 0.0);
-            assert_eq!(density.sun_pdf_of(k, -0.1), 0.0);
+            assert_eq!(density.sun_pdf_of(k, segments[7].t1 + 0.1, 0), 0.0);
+            assert_eq!(density.sun_pdf_of(k, -0.1, 0), 0.0);
         }
-        assert_eq!(density.sun_pdf_of(2, 1.0), 0.0);
+        assert_eq!(density.sun_pdf_of(2, 1.0, 0), 0.0);
         // One channel: the draws' own density.
         let depth = SunDepth::of_profiles(
             &levels,
@@ -961,11 +1019,46 @@ mod tests {
         let mut sampler = Sampler::new(&[3]);
         for _ in 0..1000 {
             let p = density.sample(&segments, 1.0, &mut sampler).expect("a point");
-            let q = density.sun_pdf_of(0, p.t);
+            let q = density.sun_pdf_of(0, p.t, p.piece);
             assert!((q / p.pdf - 1.0).abs() < 1e-12, "{q} against {}", p.pdf);
         }
         assert!((density.sun_integral_of(0) / density.sunlit_integral() - 1.0).abs() < 1e-15);
         assert_eq!(density.sun_integral_of(1), 0.0);
+    }
+
+    /// Kept normalisers ([`FlightDensity::keep_normalisers`]) change no
+    /// number: the same draws, densities and sun parts bit for bit, over
+    /// two followed channels and both parts; a new build drops them.
+    #[test]
+    fn kept_normalisers_give_the_same_draws_bit_for_bit() {
+        let (levels, sigma, ray, segments) = eight_layer_flight();
+        let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
+        let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+        let sun = DVec3::new(-0.6, 0.0, 0.8);
+        let profiles = [sigma.clone(), extinct.clone()];
+        let depth = SunDepth::of_profiles(&levels, &profiles, &Geometry::PlaneParallel, sun, false);
+        let optics = |_: usize, s: &Segment| {
+            let len = s.t1 - s.t0;
+            [(sigma[s.layer] * len, c[s.layer]), (extinct[s.layer] * len, c[s.layer])]
+        };
+        let mut density = FlightDensity::default();
+        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        let draws = |density: &FlightDensity| {
+            let mut sampler = Sampler::new(&[5]);
+            (0..2000)
+                .map(|_| {
+                    let p = density.sample(&segments, 0.8, &mut sampler).expect("a point");
+                    let sun_parts = [0, 1].map(|k| density.sun_pdf_of(k, p.t, p.piece).to_bits());
+                    (p.t.to_bits(), p.pdf.to_bits(), p.segment, p.piece, sun_parts)
+                })
+                .collect::<Vec<_>>()
+        };
+        let computed = draws(&density);
+        density.keep_normalisers();
+        assert_eq!(density.normalisers.len(), density.terms.len());
+        assert_eq!(draws(&density), computed);
+        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(density.normalisers.is_empty());
     }
 
     #[test]

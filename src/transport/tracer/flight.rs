@@ -9,11 +9,38 @@ use crate::geometry::shell::Geometry;
 use crate::sampling::sampler::Sampler;
 use crate::transport::free_flight::FlightEnd;
 
-use super::path::{Depths, Outcome, Path};
+use super::path::{Depths, Outcome, Path, ViewKey};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 
 impl Scene {
+    /// [`Scene::exit_depths`] of a path's flight along `ray` into
+    /// `path.ray`. The sensor's own flight of a view ray that repeats
+    /// ([`Path::view_repeats`]) computes what depends on the ray alone
+    /// (the half chords, the basis vectors' depths, how it leaves) once
+    /// and keeps it on the thread ([`Path::view_depths`]); every sample
+    /// combines its own spectra's depths from it: the same numbers bit
+    /// for bit, without the square roots of every level.
+    pub(super) fn flight_depths(&self, path: &mut Path, spectra: &ChannelSpectra, ray: &Ray) -> Option<WalkEnd> {
+        if path.order != 0 || !path.view_repeats {
+            return self.exit_depths(&mut path.ray, spectra, &self.geometry, ray);
+        }
+        let key = ViewKey::new(self.id, ray, 0);
+        if path.view_depths_key != Some(key) {
+            let end = self.exit_depths(&mut path.ray, spectra, &self.geometry, ray);
+            path.view_depths.clone_from(&path.ray);
+            path.view_end = end;
+            path.view_depths_key = Some(key);
+            return end;
+        }
+        let (kept, d) = (&path.view_depths, &mut path.ray);
+        d.chords.clone_from(&kept.chords);
+        d.tau_basis.clone_from(&kept.tau_basis);
+        d.exit.clone_from(&kept.exit);
+        Self::combine(spectra, &d.tau_basis, &mut d.tau);
+        path.view_end
+    }
+
     /// Every channel's optical depth from the ray's origin to where it
     /// leaves (top or ground) into `d.tau`, through `geometry`, and how it
     /// leaves; `None` for an endless (horizontal plane-parallel) ray.

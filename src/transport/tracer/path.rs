@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::DVec3;
 
 use crate::atmosphere::optics::PointOptics;
-use crate::geometry::ray::{Ray, Segment};
+use crate::geometry::ray::{Ray, Segment, WalkEnd};
 use crate::geometry::shell_exit::ShellExit;
 use crate::job::options::MAX_ALBEDOS;
 use crate::polarization::phase_mixture::PhaseMixture;
@@ -71,7 +71,7 @@ pub(super) struct Path {
     /// else), never copied into a branch.
     pub(super) view_density: FlightDensity,
     pub(super) view_segments: Vec<Segment>,
-    pub(super) view_key: Option<(ViewDensityKey, bool)>,
+    pub(super) view_key: Option<(ViewKey, bool)>,
     /// With it, for a polarised view ray that repeats: the density that
     /// follows the followed channels' Rayleigh single scattering along the
     /// same flight (c̄ = σ_Rayleigh), the control variate of Q and U
@@ -82,6 +82,15 @@ pub(super) struct Path {
     /// frame axis it was computed for (`Scene::polarization_control`).
     pub(super) view_control: [Stokes; MAX_FOLLOWED],
     pub(super) view_control_e1: Option<DVec3>,
+    /// The depths along the sensor's own flight of a view ray that
+    /// repeats, how it leaves, and the scene and ray they were computed
+    /// for: kept on the thread from sample to sample (what depends on the
+    /// ray alone: the half chords, the basis vectors' depths; each sample
+    /// combines its own spectra's), never copied into a branch
+    /// (`Scene::flight_depths`).
+    pub(super) view_depths: Depths,
+    pub(super) view_end: Option<WalkEnd>,
+    pub(super) view_depths_key: Option<ViewKey>,
     /// Whether the sensor's view ray repeats from sample to sample
     /// ([`ViewRay::Repeated`](super::view_ray::ViewRay)).
     pub(super) view_repeats: bool,
@@ -122,23 +131,23 @@ impl Depths {
     }
 }
 
-/// What the sensor's own flight's sun-aware density was built for: the
-/// scene's [`SunFollow`] (by its id), the view ray bit for bit, and the
-/// most segments in a piece.
+/// What something kept for the sensor's own flight was computed for: its
+/// owner (a scene, or a scene's [`SunFollow`], by its id), the view ray bit
+/// for bit, and, for a sun-aware density, the most segments in a piece.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct ViewDensityKey {
-    follow: u64,
+pub(super) struct ViewKey {
+    owner: u64,
     origin: [u64; 3],
     dir: [u64; 3],
     layer: usize,
     pieces: usize,
 }
 
-impl ViewDensityKey {
-    pub(super) fn new(follow: u64, ray: &Ray, pieces: usize) -> ViewDensityKey {
+impl ViewKey {
+    pub(super) fn new(owner: u64, ray: &Ray, pieces: usize) -> ViewKey {
         let bits = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-        ViewDensityKey {
-            follow,
+        ViewKey {
+            owner,
             origin: bits(ray.origin),
             dir: bits(ray.dir),
             layer: ray.layer,
@@ -147,10 +156,11 @@ impl ViewDensityKey {
     }
 }
 
-/// A new [`SunFollow::id`]: every one made in the process has its own, so
-/// a thread's kept view density ([`Path::view_key`]) never serves another
-/// scene's.
-pub(super) fn next_follow_id() -> u64 {
+/// A new id for a [`Scene`](super::scene::Scene) or a [`SunFollow`]:
+/// every one made in the process has its own, so what a thread keeps for
+/// a view ray ([`Path::view_key`], [`Path::view_depths_key`]) never
+/// serves another's.
+pub(super) fn next_owner_id() -> u64 {
     static NEXT: AtomicU64 = AtomicU64::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -169,7 +179,7 @@ pub(super) const PIECE_SEGMENTS: usize = 4;
 /// divided by; these need no work per path).
 #[derive(Debug, Clone)]
 pub(super) struct SunFollow {
-    /// Its own id in the process ([`next_follow_id`]).
+    /// Its own id in the process ([`next_owner_id`]).
     pub(super) id: u64,
     /// Their depths toward the sun, one profile each.
     pub(super) depth: SunDepth,

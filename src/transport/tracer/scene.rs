@@ -107,6 +107,10 @@ pub struct Scene {
     /// The layers paths are tracked through: the profile's, or merged
     /// (`TrackingLayers::Merged`, `tracking`).
     pub(super) track: Tracking,
+    /// Its own id in the process (`path::next_owner_id`; a clone shares
+    /// it): what a thread keeps for a view ray from sample to sample
+    /// (`Path::view_depths`) is this scene's alone.
+    pub(super) id: u64,
 }
 
 /// How the medium between a scene's levels is modelled and tracked.
@@ -219,6 +223,7 @@ impl Scene {
             pseudo_spherical_radius_km: medium.pseudo_spherical_radius_km,
             aerosol_phases,
             track,
+            id: super::path::next_owner_id(),
         };
         if !banded {
             let mut fixed = ChannelSpectra {
@@ -388,7 +393,7 @@ impl Scene {
             }
         }
         self.sun_follow = Some(SunFollow {
-            id: super::path::next_follow_id(),
+            id: super::path::next_owner_id(),
             depth,
             channels: followed.iter().map(|f| f.1).collect(),
             coefficients,
@@ -674,11 +679,13 @@ mod tests {
     }
 
     #[test]
-    fn the_view_density_kept_between_samples_gives_the_samples_built_afresh() {
+    fn what_a_view_ray_keeps_between_samples_gives_the_samples_computed_afresh() {
         // By day a repeated view ray connects along its own flight, from
-        // a density each thread keeps while the view ray stays the same. Every sample, with the density kept from the
-        // previous one (of the same or of another direction) or built
-        // afresh, is the same bit for bit.
+        // a density each thread keeps while the view ray stays the same,
+        // and every repeated view ray keeps its depths. Every sample, with
+        // them kept from the previous one (of the same or of another
+        // direction, or of another scene: two scenes that differ only in
+        // their aerosol) or computed afresh, is the same bit for bit.
         use crate::polarization::stokes::Stokes;
         use crate::sampling::stream::{Estimate, Render, StreamKey};
         use crate::sensor::direction::Direction;
@@ -686,14 +693,19 @@ mod tests {
         use super::super::path::WORK;
         use super::super::view_ray::ViewRay;
 
-        let text = "[atmosphere]\nprofile = \"us_standard\"\n[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\n\
-                    top_km = 2.0\ntau = 0.2\nssa = 0.95\ng = 0.7\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
-                    wavelengths_nm = [540.0]\n[ground]\nalbedo = 0.2\n[sensor]\ntype = \"directions\"\n\
-                    directions = [[30.0, 0.0]]\n[render]\nsamples = 1\n";
-        let scene = Job::parse(text, "test.toml", FsPath::new("."))
-            .expect("a valid job")
-            .scene(0);
-        assert!(scene.sun_follow.as_ref().is_some_and(|f| f.view_only));
+        let scene = |tau: f64| {
+            let text = format!(
+                "[atmosphere]\nprofile = \"us_standard\"\n[[atmosphere.aerosol_layers]]\nbottom_km = 0.0\n\
+                 top_km = 2.0\ntau = {tau}\nssa = 0.95\ng = 0.7\n[sun]\nzenith_deg = 45.0\n[spectrum]\n\
+                 wavelengths_nm = [540.0]\n[ground]\nalbedo = 0.2\n[sensor]\ntype = \"directions\"\n\
+                 directions = [[30.0, 0.0]]\n[render]\nsamples = 1\n"
+            );
+            Job::parse(&text, "test.toml", FsPath::new("."))
+                .expect("a valid job")
+                .scene(0)
+        };
+        let scenes = [scene(0.2), scene(0.6)];
+        assert!(scenes[0].sun_follow.as_ref().is_some_and(|f| f.view_only));
         let views: Vec<Direction> = [(30.0, 0.0), (60.0, 0.0), (45.0, 10.0)]
             .iter()
             .map(|&(z, a)| Direction {
@@ -701,30 +713,37 @@ mod tests {
                 azimuth_deg: a,
             })
             .collect();
-        let mut out = vec![Stokes::zero(); scene.value_count()];
-        let mut sample = |d: usize, i: u64, fresh: bool| {
+        let mut out = vec![Stokes::zero(); scenes[0].value_count()];
+        let mut sample = |s: usize, d: usize, i: u64, fresh: bool| {
             if fresh {
-                WORK.with_borrow_mut(|w| w.path.view_key = None);
+                WORK.with_borrow_mut(|w| {
+                    w.path.view_key = None;
+                    w.path.view_depths_key = None;
+                });
             }
             let key = StreamKey::new(3, Render::channel(0, 0), Estimate::Direction(d));
             let (v, e1) = (views[d].vector(), views[d].meridian_axis());
-            scene.radiance_sample(0.0, v, e1, ViewRay::Repeated, &mut key.sampler(i), &mut out);
+            scenes[s].radiance_sample(0.0, v, e1, ViewRay::Repeated, &mut key.sampler(i), &mut out);
             out[0].0
         };
-        let mut kept = 0;
+        let (mut kept, mut kept_depths) = (0, 0);
         for i in 0..300 {
-            for d in [0, 0, 1, 2, 2, 0] {
-                let warm = sample(d, i, false);
-                let cold = sample(d, i, true);
+            for (s, d) in [(0, 0), (0, 0), (1, 0), (0, 1), (0, 2), (1, 2), (1, 2), (0, 0)] {
+                let warm = sample(s, d, i, false);
+                let cold = sample(s, d, i, true);
                 assert_eq!(
                     warm.map(f64::to_bits),
                     cold.map(f64::to_bits),
-                    "direction {d}, sample {i}"
+                    "scene {s}, direction {d}, sample {i}"
                 );
-                kept += usize::from(WORK.with_borrow(|w| w.path.view_key.is_some()));
+                WORK.with_borrow(|w| {
+                    kept += usize::from(w.path.view_key.is_some());
+                    kept_depths += usize::from(w.path.view_depths_key.is_some());
+                });
             }
         }
-        // The views used a density (and kept it).
+        // The views used a density and depths (and kept them).
         assert!(kept > 300, "{kept}");
+        assert_eq!(kept_depths, 2400);
     }
 }

@@ -10,10 +10,10 @@ use crate::job::options::SunTransmittance;
 use crate::polarization::phase::PhaseFunction;
 use crate::polarization::stokes::{Mueller, Stokes};
 use crate::sampling::sampler::Sampler;
-use crate::transport::flight_density::FlightDensity;
+use crate::transport::flight_density::{FlightDensity, Point};
 use crate::transport::free_flight::FlightEnd;
 
-use super::path::{PIECE_SEGMENTS, Path, Shape, SunFollow, ViewDensityKey};
+use super::path::{PIECE_SEGMENTS, Path, Shape, SunFollow, ViewKey};
 use super::scene::Scene;
 use super::spectra::ChannelSpectra;
 use super::vertex::{INV_4PI, SUN_AWARE_SHARE, scattering_frame, sun_ray};
@@ -146,7 +146,7 @@ impl Scene {
         // coarser and more defensive.
         let point = if path.order == 0 {
             let (share, pieces) = follow.view_density;
-            let key = ViewDensityKey::new(follow.id, ray, pieces);
+            let key = ViewKey::new(follow.id, ray, pieces);
             let drawable = match path.view_key {
                 Some((k, drawable)) if k == key => {
                     path.segments.clone_from(&path.view_segments);
@@ -178,6 +178,10 @@ impl Scene {
                             pieces,
                             Shape::Rayleigh,
                         );
+                        path.view_polarization.keep_normalisers();
+                    }
+                    if path.view_repeats {
+                        path.view_density.keep_normalisers();
                     }
                     path.view_segments.clone_from(&path.segments);
                     path.view_key = Some((key, drawable));
@@ -189,7 +193,7 @@ impl Scene {
             }
             let point = path.view_density.sample(&path.segments, share, sampler);
             if path.view_polarized {
-                self.polarization_control(path, follow, ray, point.map(|p| (p.t, p.pdf)));
+                self.polarization_control(path, follow, ray, point);
             }
             point
         } else {
@@ -299,7 +303,7 @@ impl Scene {
     /// q > 0 wherever q_R > 0 (its flight part) and q_R integrates to 1:
     /// Q and U stay unbiased and lose the variance of their Rayleigh
     /// single scattering's shape; I is untouched.
-    fn polarization_control(&self, path: &mut Path, follow: &SunFollow, ray: &Ray, point: Option<(f64, f64)>) {
+    fn polarization_control(&self, path: &mut Path, follow: &SunFollow, ray: &Ray, point: Option<Point>) {
         // Z·v per followed channel depends on the view alone: computed
         // once per view ray and frame.
         if path.view_control_e1 != Some(path.frame_e1) {
@@ -325,7 +329,7 @@ impl Scene {
             if control.0[0] == 0.0 {
                 continue;
             }
-            let ratio = point.map_or(0.0, |(t, pdf)| path.view_polarization.sun_pdf_of(k, t) / pdf);
+            let ratio = point.map_or(0.0, |p| path.view_polarization.sun_pdf_of(k, p.t, p.piece) / p.pdf);
             let mut v = path.throughput[w] * control;
             v.0[0] = 0.0;
             path.add(w, v * (1.0 - ratio));

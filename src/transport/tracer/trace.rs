@@ -116,7 +116,7 @@ impl Scene {
         }
         let forced = self.forced();
         loop {
-            let Some(end) = self.exit_depths(&mut path.ray, spectra, &self.geometry, &ray) else {
+            let Some(end) = self.flight_depths(path, spectra, &ray) else {
                 return;
             };
             if self.track.merged {
