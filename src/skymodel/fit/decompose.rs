@@ -75,6 +75,33 @@ impl LowRank {
     pub fn explained_variance(&self) -> Vec<f64> {
         (1..=self.rank).map(|k| self.explained_variance_by(k)).collect()
     }
+
+    /// The share of the sum of squares of `values` (row-major, of this
+    /// table's size) over the cells where `counts` is true that the first
+    /// k components reproduce, 1 − Σ (v − Σ_{i<k} zenith_i·sun_i)² / Σ v²,
+    /// for k = 1, …, `rank` (1 where those cells are all zero). For the
+    /// truncated SVD over every cell it is
+    /// [`explained_variance`](Self::explained_variance) (Eckart–Young);
+    /// for a weighted decomposition over the cells with data it is what
+    /// the components reproduce of the data alone, whatever they put in
+    /// the other cells. Then it need not grow with k: the components are
+    /// ordered by their size over every cell (in 39 of 308 images of the
+    /// mini grid it dips from one rank to the next, by up to 0.005).
+    pub fn explained_over(&self, values: &[f64], counts: &[bool]) -> Vec<f64> {
+        let cells: Vec<usize> = (0..values.len()).filter(|&k| counts[k]).collect();
+        let total: f64 = cells.iter().map(|&k| values[k] * values[k]).sum();
+        let mut approx = vec![0.0; cells.len()];
+        (0..self.rank)
+            .map(|i| {
+                let mut error = 0.0;
+                for (a, &k) in approx.iter_mut().zip(&cells) {
+                    *a += self.zenith[i][k / self.cols] * self.sun[i][k % self.cols];
+                    error += (values[k] - *a) * (values[k] - *a);
+                }
+                if total > 0.0 { 1.0 - error / total } else { 1.0 }
+            })
+            .collect()
+    }
 }
 
 /// The best rank-`rank` approximation of the row-major `rows` × `cols`
@@ -246,6 +273,29 @@ mod tests {
         let frob: f64 = table(rows, cols).iter().map(|x| x * x).sum();
         let total: f64 = low.singular_values.iter().map(|s| s * s).sum();
         assert!((frob - total).abs() < 1e-10 * frob);
+    }
+
+    /// Over every cell of a truncated SVD, what the first k components
+    /// reproduce is the share of the first k squared singular values
+    /// (Eckart–Young); over a part of the cells it is that part's own
+    /// share, 1 on cells all zero.
+    #[test]
+    fn explained_over_every_cell_is_the_explained_variance() {
+        let (rows, cols) = (40, 60);
+        let m = table(rows, cols);
+        let low = truncated_svd(&m, rows, cols, 5);
+        let over = low.explained_over(&m, &vec![true; rows * cols]);
+        for (k, (a, b)) in over.iter().zip(low.explained_variance()).enumerate() {
+            assert!((a - b).abs() < 1e-12, "rank {}: {a} against {b}", k + 1);
+        }
+        // The first row alone, by hand.
+        let first: Vec<bool> = (0..rows * cols).map(|k| k < cols).collect();
+        let total: f64 = m[..cols].iter().map(|v| v * v).sum();
+        let error: f64 = (0..cols)
+            .map(|c| (m[c] - low.zenith[0][0] * low.sun[0][c]).powi(2))
+            .sum();
+        assert!((low.explained_over(&m, &first)[0] - (1.0 - error / total)).abs() < 1e-15);
+        assert_eq!(low.explained_over(&vec![0.0; rows * cols], &first), vec![1.0; 5]);
     }
 
     #[test]
