@@ -37,7 +37,8 @@ pub struct ImageStats {
     pub altitude_m: f64,
     pub elevation_deg: f64,
     pub wavelength_nm: f64,
-    /// Explained variance of the (γ, α) table by rank 1, 2, …
+    /// Explained variance of the (γ, α) table by rank 1, 2, …, over its
+    /// cells with data (`image_fit::low_rank_weighted`).
     pub explained: Vec<f64>,
     /// The pre-emphasis's κ (below-horizon brightness over the infill's).
     pub kappa: f64,

@@ -422,7 +422,7 @@ pub fn write_report(dir: &Path, scores: &[ImageScore], extras: &ReportExtras) ->
         md.push('\n');
     }
     if !extras.explained.is_empty() {
-        md.push_str("## Explained variance of the (γ, α) tables by rank\n\n| rank | mean | minimum |\n|---|---|---|\n");
+        md.push_str("## Explained variance of the (γ, α) tables by rank (over their cells with data)\n\n| rank | mean | minimum |\n|---|---|---|\n");
         for (r, m, lo) in &extras.explained {
             md.push_str(&format!("| {r} | {m:.6} | {lo:.6} |\n"));
         }
