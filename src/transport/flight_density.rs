@@ -960,6 +960,53 @@ mod tests {
         }
     }
 
+    /// The eight-layer flight with two followed channels, the second
+    /// twenty times as extinct, c falling with height (far from flat in a
+    /// piece of four), under a sun at (−0.6, 0, 0.8).
+    struct TwoChannels {
+        levels: Vec<f64>,
+        sigma: Vec<f64>,
+        extinct: Vec<f64>,
+        ray: Ray,
+        segments: Vec<Segment>,
+        c: Vec<f64>,
+        sun: DVec3,
+        depth: SunDepth,
+    }
+
+    impl TwoChannels {
+        fn new() -> TwoChannels {
+            let (levels, sigma, ray, segments) = eight_layer_flight();
+            let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
+            let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
+            let sun = DVec3::new(-0.6, 0.0, 0.8);
+            let profiles = [sigma.clone(), extinct.clone()];
+            let depth = SunDepth::of_profiles(&levels, &profiles, &Geometry::PlaneParallel, sun, false);
+            TwoChannels {
+                levels,
+                sigma,
+                extinct,
+                ray,
+                segments,
+                c,
+                sun,
+                depth,
+            }
+        }
+
+        /// Its density in pieces of four into `density`.
+        fn build(&self, density: &mut FlightDensity) -> bool {
+            let optics = |_: usize, s: &Segment| {
+                let len = s.t1 - s.t0;
+                [
+                    (self.sigma[s.layer] * len, self.c[s.layer]),
+                    (self.extinct[s.layer] * len, self.c[s.layer]),
+                ]
+            };
+            density.build(&self.ray, &self.segments, 2, 4, optics, &self.depth, self.sun)
+        }
+    }
+
     /// A channel's sun part alone ([`FlightDensity::sun_pdf_of`]) is a
     /// density: over the eight-layer flight with two followed channels and
     /// pieces of four (c far from flat inside them) it integrates to 1
@@ -969,18 +1016,18 @@ mod tests {
     /// term.
     #[test]
     fn a_channels_sun_part_alone_is_a_density() {
-        let (levels, sigma, ray, segments) = eight_layer_flight();
-        let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
-        let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
-        let sun = DVec3::new(-0.6, 0.0, 0.8);
-        let profiles = [sigma.clone(), extinct.clone()];
-        let depth = SunDepth::of_profiles(&levels, &profiles, &Geometry::PlaneParallel, sun, false);
-        let optics = |_: usize, s: &Segment| {
-            let len = s.t1 - s.t0;
-            [(sigma[s.layer] * len, c[s.layer]), (extinct[s.layer] * len, c[s.layer])]
-        };
+        let flight = TwoChannels::new();
         let mut density = FlightDensity::default();
-        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(flight.build(&mut density));
+        let TwoChannels {
+            levels,
+            sigma,
+            ray,
+            segments,
+            c,
+            sun,
+            ..
+        } = flight;
         for k in 0..2 {
             let mut total = 0.0;
             for (j, p) in density.pieces.iter().enumerate() {
@@ -1031,23 +1078,15 @@ mod tests {
     /// two followed channels and both parts; a new build drops them.
     #[test]
     fn kept_normalisers_give_the_same_draws_bit_for_bit() {
-        let (levels, sigma, ray, segments) = eight_layer_flight();
-        let extinct: Vec<f64> = sigma.iter().map(|s| 20.0 * s).collect();
-        let c: Vec<f64> = (0..8).map(|i| 0.3 * (-(i as f64 + 0.5) / 1.2).exp()).collect();
-        let sun = DVec3::new(-0.6, 0.0, 0.8);
-        let profiles = [sigma.clone(), extinct.clone()];
-        let depth = SunDepth::of_profiles(&levels, &profiles, &Geometry::PlaneParallel, sun, false);
-        let optics = |_: usize, s: &Segment| {
-            let len = s.t1 - s.t0;
-            [(sigma[s.layer] * len, c[s.layer]), (extinct[s.layer] * len, c[s.layer])]
-        };
+        let flight = TwoChannels::new();
+        let segments = &flight.segments;
         let mut density = FlightDensity::default();
-        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(flight.build(&mut density));
         let draws = |density: &FlightDensity| {
             let mut sampler = Sampler::new(&[5]);
             (0..2000)
                 .map(|_| {
-                    let p = density.sample(&segments, 0.8, &mut sampler).expect("a point");
+                    let p = density.sample(segments, 0.8, &mut sampler).expect("a point");
                     let sun_parts = [0, 1].map(|k| density.sun_pdf_of(k, p.t, p.piece).to_bits());
                     (p.t.to_bits(), p.pdf.to_bits(), p.segment, p.piece, sun_parts)
                 })
@@ -1057,7 +1096,7 @@ mod tests {
         density.keep_normalisers();
         assert_eq!(density.normalisers.len(), density.terms.len());
         assert_eq!(draws(&density), computed);
-        assert!(density.build(&ray, &segments, 2, 4, optics, &depth, sun));
+        assert!(flight.build(&mut density));
         assert!(density.normalisers.is_empty());
     }
 
